@@ -1,0 +1,163 @@
+//! View frusta as six planes, and the three-way classification that lets trees accept whole
+//! subtrees at once.
+
+use crate::{Aabb, Sphere};
+use glam::{Mat4, Vec3A, Vec4};
+
+/// Where a volume lies with respect to a frustum (or any convex region).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Containment {
+    /// Entirely outside: behind at least one plane.
+    Outside,
+    /// Possibly crossing the boundary: neither test could decide.
+    Intersecting,
+    /// Entirely inside every plane: a tree can accept the whole subtree without further tests.
+    Inside,
+}
+
+/// A plane `normal . p + d = 0`; points with `normal . p + d >= 0` are on its inner side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    /// Unit normal pointing to the inner side (zero for the planes of an infinite far plane).
+    pub normal: Vec3A,
+    /// Signed offset: the signed distance of the world origin from the plane.
+    pub d: f32,
+}
+
+impl Plane {
+    /// A plane from `(a, b, c, d)` with `a x + b y + c z + d >= 0` inside, normalised. A zero
+    /// normal (the far plane of Bevy's infinite reverse-z projection) keeps its sign of `d`:
+    /// all space is inside when `d >= 0`, none when `d < 0`.
+    pub fn from_vec4(v: Vec4) -> Self {
+        let normal = Vec3A::new(v.x, v.y, v.z);
+        let len = normal.length();
+        if len > 0.0 && len.is_finite() {
+            Self {
+                normal: normal / len,
+                d: v.w / len,
+            }
+        } else {
+            Self {
+                normal: Vec3A::ZERO,
+                d: if v.w >= 0.0 { 1.0 } else { -1.0 },
+            }
+        }
+    }
+
+    /// Signed distance of a point (positive inside).
+    #[inline]
+    pub fn signed_distance(&self, p: Vec3A) -> f32 {
+        self.normal.dot(p) + self.d
+    }
+}
+
+/// A convex region bounded by six planes, all normals pointing inwards.
+///
+/// Plane order: left, right, bottom, top, near, far (Bevy's `ViewFrustum` keeps near at 4 and far
+/// at 5 too).
+///
+/// ```
+/// use accel::{Aabb, Containment, Frustum};
+/// use glam::{Mat4, Vec3, Vec3A};
+/// let proj = Mat4::perspective_rh(1.0, 1.0, 0.1, 100.0);
+/// let view = Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y);
+/// let f = Frustum::from_clip_from_world(&(proj * view));
+/// let ahead = Aabb::new(Vec3A::new(-1.0, -1.0, -11.0), Vec3A::new(1.0, 1.0, -9.0));
+/// let behind = Aabb::new(Vec3A::new(-1.0, -1.0, 9.0), Vec3A::new(1.0, 1.0, 11.0));
+/// assert_eq!(f.classify_aabb(&ahead), Containment::Inside);
+/// assert_eq!(f.classify_aabb(&behind), Containment::Outside);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    /// The six bounding planes.
+    pub planes: [Plane; 6],
+}
+
+impl Frustum {
+    /// Index of the near plane in [`Frustum::planes`].
+    pub const NEAR: usize = 4;
+    /// Index of the far plane in [`Frustum::planes`].
+    pub const FAR: usize = 5;
+
+    /// The frustum of a clip-from-world (view-projection) matrix, by the method of Gribb and
+    /// Hartmann (2001). Depth is taken as `0 <= z <= w` (wgpu's and Bevy's clip space); with
+    /// Bevy's reverse-z, plane 4 (`z <= w`) is the near plane and plane 5 (`z >= 0`) is the far
+    /// plane, which for an infinite projection contains all space.
+    pub fn from_clip_from_world(clip_from_world: &Mat4) -> Self {
+        let m = clip_from_world.transpose();
+        let (r0, r1, r2, r3) = (m.x_axis, m.y_axis, m.z_axis, m.w_axis);
+        Self::from_planes([r3 + r0, r3 - r0, r3 + r1, r3 - r1, r3 - r2, r2])
+    }
+
+    /// A frustum from six `(a, b, c, d)` half-spaces with `a x + b y + c z + d >= 0` inside (the
+    /// form of Bevy's `HalfSpace::normal_d`).
+    pub fn from_planes(planes: [Vec4; 6]) -> Self {
+        Self {
+            planes: planes.map(Plane::from_vec4),
+        }
+    }
+
+    /// Classifies a box: outside (behind a plane), inside (in front of every plane), or
+    /// intersecting (undecided). Conservative: a box touching the region is never outside. An
+    /// empty or NaN box is outside.
+    #[inline]
+    pub fn classify_aabb(&self, aabb: &Aabb) -> Containment {
+        if !aabb.is_valid() {
+            return Containment::Outside;
+        }
+        self.classify_center_half_extents(aabb.center(), aabb.half_extents())
+    }
+
+    /// [`Frustum::classify_aabb`] on a box given by centre and half extents.
+    #[inline]
+    pub fn classify_center_half_extents(&self, center: Vec3A, half: Vec3A) -> Containment {
+        let mut inside = true;
+        for plane in &self.planes {
+            let s = plane.signed_distance(center);
+            // The projected radius of the box onto the plane normal.
+            let r = plane.normal.abs().dot(half);
+            if s + r < 0.0 {
+                return Containment::Outside;
+            }
+            inside &= s - r >= 0.0;
+        }
+        if inside {
+            Containment::Inside
+        } else {
+            Containment::Intersecting
+        }
+    }
+
+    /// Classifies a sphere the same way. An invalid sphere is outside.
+    #[inline]
+    pub fn classify_sphere(&self, sphere: &Sphere) -> Containment {
+        if !sphere.is_valid() {
+            return Containment::Outside;
+        }
+        let mut inside = true;
+        for plane in &self.planes {
+            let s = plane.signed_distance(sphere.center);
+            if s + sphere.radius < 0.0 {
+                return Containment::Outside;
+            }
+            inside &= s - sphere.radius >= 0.0;
+        }
+        if inside {
+            Containment::Inside
+        } else {
+            Containment::Intersecting
+        }
+    }
+
+    /// True unless the box is certainly outside.
+    #[inline]
+    pub fn intersects_aabb(&self, aabb: &Aabb) -> bool {
+        self.classify_aabb(aabb) != Containment::Outside
+    }
+
+    /// True when the point is on the inner side of every plane.
+    #[inline]
+    pub fn contains_point(&self, p: Vec3A) -> bool {
+        self.planes.iter().all(|pl| pl.signed_distance(p) >= 0.0)
+    }
+}

@@ -1,0 +1,16 @@
+//! Bounding volumes, rays, frusta, triangles and the robust tests between them.
+
+mod aabb;
+mod frustum;
+mod ray;
+mod ray_aabb;
+mod ray_sphere;
+mod sphere;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use frustum::{Containment, Frustum, Plane};
+pub use ray::Ray;
+pub use ray_aabb::SLAB_WIDENING;
+pub use sphere::Sphere;
+pub use triangle::{Backfaces, Triangle, TriangleHit, WatertightRay, intersect_triangle_f64};
