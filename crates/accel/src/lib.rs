@@ -7,10 +7,19 @@
 //!   ray/sphere quadratic, the watertight ray/triangle test, and three-way frustum
 //!   classification.
 //!
+//! - [`bvh`]: the static BVH with every textbook build choice (midpoint, median, binned and
+//!   sweep SAH; leaf size, depth and cost stopping rules).
+//! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
+//!   ray hits; box, sphere and point overlap; frustum; k nearest).
+//!
 //! Every test is NaN-safe: a NaN ray is a miss, a NaN box reports itself invalid, and nothing
 //! panics on non-finite input.
 #![warn(missing_docs)]
 
+pub mod bvh;
 pub mod geometry;
+pub mod query;
 
+pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use geometry::*;
+pub use query::{BoundingTree, RayHit, SpatialQuery};

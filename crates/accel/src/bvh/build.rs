@@ -1,0 +1,165 @@
+//! The top-down builder: one driver, four ways to split.
+
+use super::config::{BuildConfig, SplitStrategy};
+use super::node::BvhNode;
+use super::{split_binned, split_object, split_sweep};
+use crate::Aabb;
+use glam::Vec3A;
+
+/// A primitive during the build: its box and its id, moved as one so partitions stay local in
+/// memory (an index array into the boxes would cost a cache miss per access on large builds).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BuildPrim {
+    pub bounds: Aabb,
+    pub centroid: Vec3A,
+    pub index: u32,
+}
+
+impl BuildPrim {
+    /// Infinite boxes are valid but have no finite centre; clamping the corners to the largest
+    /// finite float first keeps every centroid finite, so binning never sees NaN.
+    fn new(bounds: Aabb, index: u32) -> Self {
+        let lo = bounds.min.clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+        let hi = bounds.max.clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+        Self {
+            bounds,
+            centroid: lo * 0.5 + hi * 0.5,
+            index,
+        }
+    }
+}
+
+/// What a split strategy decided for one node.
+pub(super) enum SplitOutcome {
+    /// Make the node a leaf (the SAH found no split worth its cost).
+    Leaf,
+    /// The slice was partitioned: `[..mid]` goes left, `[mid..]` right; both are non-empty.
+    Split(usize),
+    /// No split by position exists (all centroids on one plane for this strategy).
+    NoPositionalSplit,
+}
+
+/// Builds the flat node array and the primitive order for `bounds`.
+///
+/// Primitives with invalid bounds (NaN, or empty) are left out: they could never be hit, and a
+/// NaN in a node box would hide its whole subtree from every query. The count of those left
+/// out is returned alongside.
+pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+    assert!(
+        bounds.len() < u32::MAX as usize,
+        "a BVH holds at most u32::MAX - 1 primitives"
+    );
+    let mut prims: Vec<BuildPrim> = bounds
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.is_valid())
+        .map(|(i, b)| BuildPrim::new(*b, i as u32))
+        .collect();
+    let n = prims.len();
+    if n == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let mut nodes = Vec::with_capacity(2 * n - 1);
+    nodes.push(BvhNode::default());
+    // An explicit stack, not recursion: a depth limit of 64 is the default, but a user may ask
+    // for more, and the thread's stack must not be what decides.
+    let mut work = vec![(0usize, 0usize, n, 0u32)];
+    while let Some((node, start, end, depth)) = work.pop() {
+        let slice = &mut prims[start..end];
+        let (node_bounds, centroid_bounds) = bounds_of(slice);
+        nodes[node].set_aabb(&node_bounds);
+        let count = end - start;
+        let outcome = if count == 1 || depth >= config.max_depth {
+            SplitOutcome::Leaf
+        } else {
+            choose_split(slice, &node_bounds, &centroid_bounds, config)
+        };
+        let outcome = match outcome {
+            // Coincident centroids: positions cannot separate them, so split by count if the
+            // leaf would be too big. Halving terminates in log2(n) levels, even for a million
+            // identical boxes.
+            SplitOutcome::NoPositionalSplit if count > config.max_leaf_size as usize => {
+                SplitOutcome::Split(count / 2)
+            }
+            SplitOutcome::NoPositionalSplit => SplitOutcome::Leaf,
+            other => other,
+        };
+        match outcome {
+            SplitOutcome::Split(mid) => {
+                debug_assert!(mid > 0 && mid < count);
+                let left = nodes.len();
+                nodes.push(BvhNode::default());
+                nodes.push(BvhNode::default());
+                nodes[node].first = left as u32;
+                nodes[node].count = 0;
+                work.push((left + 1, start + mid, end, depth + 1));
+                work.push((left, start, start + mid, depth + 1));
+            }
+            _ => {
+                nodes[node].first = start as u32;
+                nodes[node].count = count as u32;
+            }
+        }
+    }
+    let order = prims.iter().map(|p| p.index).collect();
+    (nodes, order)
+}
+
+fn choose_split(
+    prims: &mut [BuildPrim],
+    node_bounds: &Aabb,
+    centroid_bounds: &Aabb,
+    config: &BuildConfig,
+) -> SplitOutcome {
+    let count = prims.len();
+    let fits_in_leaf = count <= config.max_leaf_size as usize;
+    if centroid_bounds.extent().max_element() <= 0.0 {
+        return SplitOutcome::NoPositionalSplit;
+    }
+    match config.split {
+        SplitStrategy::Midpoint | SplitStrategy::Median if fits_in_leaf => SplitOutcome::Leaf,
+        SplitStrategy::Midpoint => split_object::midpoint(prims, centroid_bounds),
+        SplitStrategy::Median => split_object::median(prims, centroid_bounds),
+        SplitStrategy::BinnedSah { .. } | SplitStrategy::SweepSah
+            if fits_in_leaf && !config.sah_termination =>
+        {
+            SplitOutcome::Leaf
+        }
+        SplitStrategy::BinnedSah { bins } => split_binned::split(
+            prims,
+            node_bounds,
+            centroid_bounds,
+            bins as usize,
+            config,
+            fits_in_leaf,
+        ),
+        SplitStrategy::SweepSah => split_sweep::split(prims, node_bounds, config, fits_in_leaf),
+    }
+}
+
+/// The union of the primitives' boxes and the bounds of their centroids.
+pub(super) fn bounds_of(prims: &[BuildPrim]) -> (Aabb, Aabb) {
+    let mut b = Aabb::EMPTY;
+    let mut c = Aabb::EMPTY;
+    for p in prims {
+        b = b.union(&p.bounds);
+        c = c.grow(p.centroid);
+    }
+    (b, c)
+}
+
+/// Partitions in place so that the primitives for which `left` holds come first; returns how
+/// many did.
+pub(super) fn partition(prims: &mut [BuildPrim], mut left: impl FnMut(&BuildPrim) -> bool) -> usize {
+    let mut i = 0;
+    let mut j = prims.len();
+    while i < j {
+        if left(&prims[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            prims.swap(i, j);
+        }
+    }
+    i
+}

@@ -1,0 +1,87 @@
+//! Every textbook build choice, as one configuration.
+
+/// How a node's primitives are divided between its two children.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitStrategy {
+    /// Split at the middle of the centroid bounds on their longest axis (spatial median).
+    /// Fastest to build; poor on clustered scenes.
+    Midpoint,
+    /// Split at the median centroid on the longest axis (object median): a balanced tree of
+    /// depth log2(n), whatever the distribution.
+    Median,
+    /// Binned surface area heuristic (Wald 2007, "On fast construction of SAH-based bounding
+    /// volume hierarchies"): centroids fall into `bins` buckets per axis and the best of the
+    /// `bins - 1` planes on all three axes is taken. The default: near-sweep quality at a
+    /// fraction of the cost.
+    BinnedSah {
+        /// Buckets per axis; 8 to 32 is the usual range.
+        bins: u32,
+    },
+    /// Full-sweep SAH: every split between sorted centroids on all three axes. The quality
+    /// reference; O(n log^2 n) to build.
+    SweepSah,
+}
+
+/// The SAH cost model: the expected cost of a ray through a node is
+/// `traversal + sum(area(child) / area(node) * primitives(child) * intersection)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SahCosts {
+    /// Cost of visiting an interior node (one box test per child).
+    pub traversal: f32,
+    /// Cost of testing one primitive.
+    pub intersection: f32,
+}
+
+impl Default for SahCosts {
+    fn default() -> Self {
+        Self {
+            traversal: 1.0,
+            intersection: 1.0,
+        }
+    }
+}
+
+/// Build configuration: split strategy and stopping rules.
+///
+/// Stopping rules, from the textbook: one primitive (`max_leaf_size = 1`), fewer than n
+/// (`max_leaf_size = n`), a depth limit (`max_depth`), and SAH cost termination
+/// (`sah_termination`: a node of at most `max_leaf_size` primitives becomes a leaf when testing
+/// its primitives costs no more than the best split). Empty nodes are never made. Nodes that
+/// cannot be split by position (all centroids equal) are split by count, so degenerate input
+/// never recurses forever.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildConfig {
+    /// How to split.
+    pub split: SplitStrategy,
+    /// Nodes with more primitives are always split (unless `max_depth` is reached).
+    pub max_leaf_size: u32,
+    /// Nodes at this depth become leaves, whatever their size (the root has depth 0).
+    pub max_depth: u32,
+    /// Stop splitting when the SAH says a leaf is cheaper (SAH strategies only).
+    pub sah_termination: bool,
+    /// The SAH cost model, used by the SAH strategies and by cost reports.
+    pub sah: SahCosts,
+}
+
+impl Default for BuildConfig {
+    /// Binned SAH with 16 bins, leaves of up to 4 primitives chosen by cost.
+    fn default() -> Self {
+        Self {
+            split: SplitStrategy::BinnedSah { bins: 16 },
+            max_leaf_size: 4,
+            max_depth: 64,
+            sah_termination: true,
+            sah: SahCosts::default(),
+        }
+    }
+}
+
+impl BuildConfig {
+    /// The default configuration with another split strategy.
+    pub fn with_split(split: SplitStrategy) -> Self {
+        Self {
+            split,
+            ..Self::default()
+        }
+    }
+}

@@ -1,0 +1,142 @@
+//! The static BVH: a flat array of 32-byte binary nodes, built top-down.
+//!
+//! - [`config`]: split strategies (midpoint, median, binned and sweep SAH) and stopping rules.
+//! - `build` and the `split_*` files: the top-down builder.
+//! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
+//! - [`validate`]: the invariant checker every test runs.
+//! - [`wide`]: the tree collapsed to 4- or 8-wide nodes for SIMD traversal.
+//!
+//! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
+//! tree ([`crate::query::binary`]).
+
+mod build;
+pub mod config;
+mod node;
+mod split_binned;
+mod split_object;
+mod split_sweep;
+pub mod stats;
+pub mod validate;
+
+pub use config::{BuildConfig, SahCosts, SplitStrategy};
+pub use node::BvhNode;
+pub use split_binned::MAX_BINS;
+
+use crate::query::BoundingTree;
+use crate::Aabb;
+
+/// A bounding volume hierarchy over primitive boxes, built once, refittable.
+///
+/// Primitives are named by their index in the slice given to [`Bvh::build`]; leaves store these
+/// ids in [`Bvh::primitive_indices`]. Invalid boxes (NaN or empty) are left out of the tree.
+///
+/// ```
+/// use accel::{Aabb, Bvh, BuildConfig, SplitStrategy};
+/// use glam::Vec3A;
+/// let boxes: Vec<Aabb> = (0..1000)
+///     .map(|i| {
+///         let p = Vec3A::new((i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32);
+///         Aabb::new(p, p + 0.5)
+///     })
+///     .collect();
+/// let bvh = Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 }));
+/// bvh.validate(&boxes).unwrap();
+/// assert_eq!(bvh.primitive_count(), 1000);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    pub(crate) nodes: Vec<BvhNode>,
+    pub(crate) primitive_indices: Vec<u32>,
+}
+
+impl Bvh {
+    /// Builds a tree over the boxes with the given configuration (single-threaded).
+    pub fn build(bounds: &[Aabb], config: &BuildConfig) -> Self {
+        let (nodes, primitive_indices) = build::build_nodes(bounds, config);
+        Self {
+            nodes,
+            primitive_indices,
+        }
+    }
+
+    /// The node array; node 0 is the root.
+    pub fn nodes(&self) -> &[BvhNode] {
+        &self.nodes
+    }
+
+    /// Primitive ids in leaf order: leaf `n` holds `primitive_indices[n.first..n.first + n.count]`.
+    pub fn primitive_indices(&self) -> &[u32] {
+        &self.primitive_indices
+    }
+
+    /// Number of primitives in the tree.
+    pub fn primitive_count(&self) -> usize {
+        self.primitive_indices.len()
+    }
+
+    /// True for a tree with no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The bounds of everything in the tree (empty for an empty tree).
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map_or(Aabb::EMPTY, BvhNode::aabb)
+    }
+
+    /// Recomputes every node box from new primitive boxes, keeping the topology.
+    ///
+    /// Children always follow their parent in the array, so one reverse sweep refits
+    /// bottom-up with no recursion. Quality decays as primitives move away from where the tree
+    /// was built; rebuild when [`stats::TreeStats::sah_cost`] grows too far.
+    pub fn refit(&mut self, bounds: &[Aabb]) {
+        for i in (0..self.nodes.len()).rev() {
+            let node = self.nodes[i];
+            let b = if node.is_leaf() {
+                let first = node.first as usize;
+                self.primitive_indices[first..first + node.count as usize]
+                    .iter()
+                    .fold(Aabb::EMPTY, |acc, &p| acc.union(&bounds[p as usize]))
+            } else {
+                let l = node.first as usize;
+                self.nodes[l].aabb().union(&self.nodes[l + 1].aabb())
+            };
+            self.nodes[i].set_aabb(&b);
+        }
+    }
+
+    /// Memory held by the tree, in bytes (nodes plus the primitive order).
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * core::mem::size_of::<BvhNode>() + self.primitive_indices.len() * 4
+    }
+}
+
+impl BoundingTree for Bvh {
+    #[inline]
+    fn root(&self) -> Option<u32> {
+        (!self.nodes.is_empty()).then_some(0)
+    }
+
+    #[inline]
+    fn node_bounds(&self, node: u32) -> Aabb {
+        self.nodes[node as usize].aabb()
+    }
+
+    #[inline]
+    fn node_children(&self, node: u32) -> Option<[u32; 2]> {
+        let n = &self.nodes[node as usize];
+        (!n.is_leaf()).then_some([n.first, n.first + 1])
+    }
+
+    #[inline]
+    fn leaf_primitives(&self, node: u32) -> &[u32] {
+        let n = &self.nodes[node as usize];
+        if n.is_leaf() {
+            &self.primitive_indices[n.first as usize..(n.first + n.count) as usize]
+        } else {
+            &[]
+        }
+    }
+}
+
+crate::impl_spatial_query_for_binary_tree!(Bvh);

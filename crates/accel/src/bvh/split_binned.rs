@@ -1,0 +1,92 @@
+//! Binned SAH (Wald 2007): the best of `bins - 1` candidate planes per axis, in two passes.
+
+use super::build::{BuildPrim, SplitOutcome, partition};
+use super::config::BuildConfig;
+use crate::Aabb;
+use glam::Vec3A;
+
+/// The most bins a build may ask for (the bin arrays live on the stack).
+pub const MAX_BINS: usize = 64;
+
+/// Bins the centroids on all three axes, sweeps for the cheapest plane, and partitions.
+pub(super) fn split(
+    prims: &mut [BuildPrim],
+    node_bounds: &Aabb,
+    centroid_bounds: &Aabb,
+    bins: usize,
+    config: &BuildConfig,
+    may_stop: bool,
+) -> SplitOutcome {
+    let bins = bins.clamp(2, MAX_BINS);
+    let extent = centroid_bounds.extent();
+    // Scale so that the largest centroid lands just inside the last bin; axes with no extent
+    // get scale 0 and put everything in bin 0, where no plane can split them.
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent,
+        Vec3A::ZERO,
+    );
+    let origin = centroid_bounds.min;
+    let last = Vec3A::splat((bins - 1) as f32);
+    let bin_of = |c: Vec3A| ((c - origin) * scale).min(last).max(Vec3A::ZERO);
+
+    let mut bin_bounds = [[Aabb::EMPTY; MAX_BINS]; 3];
+    let mut bin_count = [[0u32; MAX_BINS]; 3];
+    for p in prims.iter() {
+        let b = bin_of(p.centroid);
+        for axis in 0..3 {
+            let i = b[axis] as usize;
+            bin_bounds[axis][i] = bin_bounds[axis][i].union(&p.bounds);
+            bin_count[axis][i] += 1;
+        }
+    }
+
+    // For each axis, sweep right to left accumulating the right side, then left to right
+    // evaluating `area(L) * n(L) + area(R) * n(R)` at each plane.
+    let mut best = (f32::INFINITY, 0usize, 0usize);
+    for axis in 0..3 {
+        if scale[axis] == 0.0 {
+            continue;
+        }
+        let mut right_cost = [0.0f32; MAX_BINS];
+        let mut acc = Aabb::EMPTY;
+        let mut n = 0u32;
+        for i in (1..bins).rev() {
+            acc = acc.union(&bin_bounds[axis][i]);
+            n += bin_count[axis][i];
+            right_cost[i] = if n > 0 {
+                acc.half_area() * n as f32
+            } else {
+                f32::INFINITY
+            };
+        }
+        let mut acc = Aabb::EMPTY;
+        let mut n = 0u32;
+        for i in 0..bins - 1 {
+            acc = acc.union(&bin_bounds[axis][i]);
+            n += bin_count[axis][i];
+            if n == 0 {
+                continue;
+            }
+            let cost = acc.half_area() * n as f32 + right_cost[i + 1];
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
+        }
+    }
+    let (cost, axis, plane) = best;
+    if !cost.is_finite() {
+        return SplitOutcome::NoPositionalSplit;
+    }
+    if may_stop {
+        let split_cost = config.sah.traversal
+            + config.sah.intersection * cost / node_bounds.half_area().max(f32::MIN_POSITIVE);
+        let leaf_cost = config.sah.intersection * prims.len() as f32;
+        if leaf_cost <= split_cost {
+            return SplitOutcome::Leaf;
+        }
+    }
+    let mid = partition(prims, |p| (bin_of(p.centroid)[axis] as usize) <= plane);
+    debug_assert!(mid > 0 && mid < prims.len());
+    SplitOutcome::Split(mid)
+}

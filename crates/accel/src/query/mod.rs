@@ -1,0 +1,94 @@
+//! One query interface for every spatial structure in the crate.
+//!
+//! [`SpatialQuery`] is what picking, culling and the preview call; the BVH, the dynamic BVH and
+//! later the octree and grid all implement it. Trees only *find candidates*: each query calls
+//! back per primitive, and the caller runs the exact test (a triangle, an entity filter), so one
+//! tree serves boxes, meshes and entities alike.
+//!
+//! The traversals of binary trees live in [`binary`] and are shared by every
+//! [`BoundingTree`].
+
+pub mod binary;
+mod stack;
+mod tree;
+
+pub(crate) use stack::TraversalStack;
+pub use tree::BoundingTree;
+
+use crate::{Aabb, Containment, Frustum, Ray, Sphere};
+use core::ops::ControlFlow;
+use glam::Vec3A;
+
+/// The closest primitive a ray query found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayHit {
+    /// The primitive id (the caller's index).
+    pub primitive: u32,
+    /// The ray parameter of the hit.
+    pub t: f32,
+}
+
+/// Queries every spatial structure answers.
+///
+/// Primitive ids are the caller's: the index of the primitive in the build input, or the id it
+/// was inserted with. Callbacks receive candidates whose bounds pass the query; they decide.
+///
+/// ```
+/// use accel::{Aabb, Bvh, BuildConfig, Ray, SpatialQuery};
+/// use glam::Vec3A;
+/// let boxes: Vec<Aabb> = (0..100)
+///     .map(|i| Aabb::new(Vec3A::new(i as f32, 0.0, 0.0), Vec3A::new(i as f32 + 0.5, 1.0, 1.0)))
+///     .collect();
+/// let bvh = Bvh::build(&boxes, &BuildConfig::default());
+/// let ray = Ray::new(Vec3A::new(-1.0, 0.5, 0.5), Vec3A::X);
+/// // The callback runs the exact test; here the primitives are the boxes themselves.
+/// let hit = bvh.cast_ray(&ray, |i, ray| ray.intersect_aabb(&boxes[i as usize])).unwrap();
+/// assert_eq!((hit.primitive, hit.t), (0, 1.0));
+/// ```
+pub trait SpatialQuery {
+    /// The closest hit: `hit(primitive, ray)` returns the exact hit parameter, if any, within
+    /// the ray's (shrinking) range. Subtrees farther than the best hit so far are skipped.
+    fn cast_ray<F>(&self, ray: &Ray, hit: F) -> Option<RayHit>
+    where
+        F: FnMut(u32, &Ray) -> Option<f32>;
+
+    /// Any hit (occlusion): stops at the first primitive for which `hit` returns true.
+    fn cast_ray_any<F>(&self, ray: &Ray, hit: F) -> Option<u32>
+    where
+        F: FnMut(u32, &Ray) -> bool;
+
+    /// Every hit within the ray's range, appended to `out` sorted by `t` (ties by id).
+    fn cast_ray_all<F>(&self, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
+    where
+        F: FnMut(u32, &Ray) -> Option<f32>;
+
+    /// Calls `visit` for each primitive whose tree bounds overlap `aabb`; it may stop early.
+    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>;
+
+    /// Calls `visit` for each primitive whose tree bounds overlap the sphere.
+    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>;
+
+    /// Calls `visit` for each primitive whose tree bounds contain the point.
+    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>;
+
+    /// Calls `visit(primitive, containment)` for each primitive whose tree bounds are not
+    /// outside the frustum. `Containment::Inside` means a whole subtree was accepted at once:
+    /// the primitive is certainly inside and needs no test. `Intersecting` means its leaf
+    /// crossed a plane and the caller should test it exactly.
+    fn for_each_in_frustum<F>(&self, frustum: &Frustum, visit: F)
+    where
+        F: FnMut(u32, Containment);
+
+    /// The `k` primitives nearest to `point`, nearest first, as `(id, squared distance)`.
+    /// `distance_squared(id)` is the exact squared distance of a primitive; subtrees whose box
+    /// is farther than the k-th best so far are skipped. Ties are broken by id.
+    fn nearest_k<F>(&self, point: Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>
+    where
+        F: FnMut(u32) -> f32;
+}

@@ -1,0 +1,44 @@
+//! The traversal stack: inline for the depths real trees have, growing for the ones they don't.
+
+/// A LIFO of node ids that lives on the call stack up to `INLINE` entries and spills to the heap
+/// beyond. A ray query that allocated would cost more than the traversal itself (an allocation
+/// is ~20 ns; a shallow traversal is less), yet a dynamic tree or a degenerate build can be far
+/// deeper than any fixed array, and overflowing one must not be possible.
+pub(crate) struct TraversalStack<T: Copy, const INLINE: usize = 64> {
+    inline: [T; INLINE],
+    len: usize,
+    spill: Vec<T>,
+}
+
+impl<T: Copy + Default, const INLINE: usize> TraversalStack<T, INLINE> {
+    #[inline]
+    pub(crate) fn new() -> Self {
+        Self {
+            inline: [T::default(); INLINE],
+            len: 0,
+            spill: Vec::new(),
+        }
+    }
+
+    #[inline]
+    pub(crate) fn push(&mut self, v: T) {
+        if self.len < INLINE {
+            self.inline[self.len] = v;
+            self.len += 1;
+        } else {
+            self.spill.push(v);
+        }
+    }
+
+    #[inline]
+    pub(crate) fn pop(&mut self) -> Option<T> {
+        if let Some(v) = self.spill.pop() {
+            return Some(v);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}

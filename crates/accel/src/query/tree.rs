@@ -1,0 +1,22 @@
+//! The view of a binary bounding-volume tree that the shared traversals walk.
+
+use crate::Aabb;
+
+/// A binary tree of boxes whose leaves hold primitive ids.
+///
+/// The static [`crate::Bvh`] and the dynamic tree both implement it, so every query is written
+/// once (in [`crate::query`]) and behaves the same on both. Node ids are the implementer's own;
+/// primitive ids are what the caller gave when the primitive entered the tree.
+pub trait BoundingTree {
+    /// The root node, or `None` for an empty tree.
+    fn root(&self) -> Option<u32>;
+
+    /// The bounds of a node: a box containing everything below it.
+    fn node_bounds(&self, node: u32) -> Aabb;
+
+    /// The two children of an interior node, or `None` for a leaf.
+    fn node_children(&self, node: u32) -> Option<[u32; 2]>;
+
+    /// The primitive ids stored in a leaf (empty for interior nodes).
+    fn leaf_primitives(&self, node: u32) -> &[u32];
+}

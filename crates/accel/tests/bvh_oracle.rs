@@ -1,0 +1,231 @@
+//! Every BVH query against a brute-force oracle, for every split strategy, on uniform,
+//! clustered and degenerate scenes.
+
+mod scenes;
+
+use accel::bvh::stats::tree_stats;
+use accel::{Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
+use core::ops::ControlFlow;
+use scenes::{Rng, SceneKind, random_frustum, rays, scene};
+
+const STRATEGIES: [SplitStrategy; 5] = [
+    SplitStrategy::Midpoint,
+    SplitStrategy::Median,
+    SplitStrategy::BinnedSah { bins: 16 },
+    SplitStrategy::BinnedSah { bins: 4 },
+    SplitStrategy::SweepSah,
+];
+
+fn configs() -> Vec<BuildConfig> {
+    let mut out = Vec::new();
+    for split in STRATEGIES {
+        for (max_leaf_size, sah_termination, max_depth) in [(1, false, 64), (4, true, 64), (8, false, 64), (2, false, 3)] {
+            out.push(BuildConfig { split, max_leaf_size, sah_termination, max_depth, sah: SahCosts::default() });
+        }
+    }
+    out
+}
+
+fn closest_brute(boxes: &[Aabb], ray: &accel::Ray) -> Option<f32> {
+    boxes.iter().filter_map(|b| ray.intersect_aabb(b)).min_by(f32::total_cmp)
+}
+
+fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
+    let bvh = Bvh::build(boxes, cfg);
+    bvh.validate(boxes).unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
+    let extent = 120.0;
+    // Rays: closest, any, all.
+    let mut all = Vec::new();
+    for ray in rays(n_queries, seed, extent) {
+        let want = closest_brute(boxes, &ray);
+        let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), want, "closest hit differs, {cfg:?} ray {ray:?}");
+        if let Some(h) = got {
+            assert_eq!(ray.intersect_aabb(&boxes[h.primitive as usize]), Some(h.t));
+        }
+        let any = bvh.cast_ray_any(&ray, |i, r| r.hits_aabb(&boxes[i as usize]));
+        assert_eq!(any.is_some(), want.is_some());
+        all.clear();
+        bvh.cast_ray_all(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]), &mut all);
+        let mut want_all: Vec<RayHit> = boxes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, b)| ray.intersect_aabb(b).map(|t| RayHit { primitive: i as u32, t }))
+            .collect();
+        accel::query::binary::sort_hits(&mut want_all);
+        assert_eq!(all, want_all);
+    }
+    // Overlaps: box, sphere, point.
+    let mut rng = Rng::new(seed);
+    for _ in 0..n_queries {
+        let q = Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.0, 30.0));
+        let mut got = Vec::new();
+        bvh.for_each_overlapping_aabb(&q, |i| {
+            if boxes[i as usize].intersects_aabb(&q) {
+                got.push(i);
+            }
+            ControlFlow::Continue(())
+        });
+        got.sort_unstable();
+        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].intersects_aabb(&q)).collect();
+        assert_eq!(got, want, "aabb overlap");
+
+        let s = Sphere::new(rng.vec3(-extent, extent), rng.range(0.0, 40.0));
+        let mut got = Vec::new();
+        bvh.for_each_overlapping_sphere(&s, |i| {
+            if s.intersects_aabb(&boxes[i as usize]) {
+                got.push(i);
+            }
+            ControlFlow::Continue(())
+        });
+        got.sort_unstable();
+        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| s.intersects_aabb(&boxes[i as usize])).collect();
+        assert_eq!(got, want, "sphere overlap");
+
+        let p = rng.vec3(-extent, extent);
+        let mut got = Vec::new();
+        bvh.for_each_containing_point(p, |i| {
+            if boxes[i as usize].contains_point(p) {
+                got.push(i);
+            }
+            ControlFlow::Continue(())
+        });
+        got.sort_unstable();
+        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].contains_point(p)).collect();
+        assert_eq!(got, want, "point containment");
+
+        // k nearest by box distance.
+        let k = 1 + rng.below(8) as usize;
+        let got = bvh.nearest_k(p, k, |i| boxes[i as usize].distance_squared_to_point(p));
+        let mut want: Vec<(u32, f32)> =
+            (0..boxes.len() as u32).map(|i| (i, boxes[i as usize].distance_squared_to_point(p))).collect();
+        want.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        want.truncate(k);
+        assert_eq!(got, want, "k nearest");
+
+        // Frustum: every box the exact test keeps is reported, and "inside" is never wrong.
+        let f = random_frustum(&mut rng, extent);
+        let mut got = Vec::new();
+        bvh.for_each_in_frustum(&f, |i, c| {
+            let exact = f.classify_aabb(&boxes[i as usize]);
+            if c == Containment::Inside {
+                assert_eq!(exact, Containment::Inside, "subtree accepted but primitive not inside");
+            }
+            if exact != Containment::Outside {
+                got.push(i);
+            }
+        });
+        got.sort_unstable();
+        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| f.intersects_aabb(&boxes[i as usize])).collect();
+        assert_eq!(got, want, "frustum");
+    }
+}
+
+#[test]
+fn every_strategy_matches_brute_force_on_every_scene_kind() {
+    let mut seed = 1;
+    for cfg in configs() {
+        for kind in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate] {
+            for n in [1, 2, 3, 17, 300] {
+                seed += 1;
+                let boxes = scene(kind, n, seed);
+                check_scene(&boxes, &cfg, seed, 40);
+            }
+        }
+    }
+}
+
+#[test]
+fn large_scenes_match_brute_force() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate].into_iter().enumerate() {
+        let boxes = scene(kind, 20_000, 77 + i as u64);
+        check_scene(&boxes, &BuildConfig::default(), 99, 60);
+    }
+}
+
+#[test]
+fn a_million_primitives_build_validate_and_query() {
+    let boxes = scene(SceneKind::Uniform, 1_000_000, 5);
+    let bvh = Bvh::build(&boxes, &BuildConfig::default());
+    bvh.validate(&boxes).unwrap();
+    for ray in rays(200, 6, 120.0) {
+        let want = closest_brute(&boxes, &ray);
+        let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), want);
+    }
+}
+
+#[test]
+fn a_million_identical_boxes_terminate_with_small_leaves() {
+    let boxes = vec![Aabb::from_point(glam::Vec3A::ONE); 1_000_000];
+    for split in STRATEGIES {
+        if split == SplitStrategy::SweepSah {
+            continue; // O(n log^2 n) sorts on a million: covered on smaller input above.
+        }
+        let cfg = BuildConfig::with_split(split);
+        let bvh = Bvh::build(&boxes, &cfg);
+        bvh.validate(&boxes).unwrap();
+        let s = tree_stats(&bvh, &cfg.sah);
+        assert!(s.max_leaf_size <= cfg.max_leaf_size as usize, "{split:?}: {s:?}");
+        assert!(s.max_depth <= 24, "{split:?}: {s:?}");
+    }
+}
+
+#[test]
+fn invalid_boxes_are_left_out_and_infinite_ones_kept() {
+    let mut boxes = scene(SceneKind::Uniform, 100, 3);
+    boxes[5] = Aabb::new(glam::Vec3A::NAN, glam::Vec3A::ONE);
+    boxes[6] = Aabb::EMPTY;
+    boxes[7] = Aabb::EVERYTHING;
+    boxes[8] = Aabb::new(glam::Vec3A::splat(-f32::MAX), glam::Vec3A::splat(f32::MAX));
+    let bvh = Bvh::build(&boxes, &BuildConfig::default());
+    bvh.validate(&boxes).unwrap();
+    assert_eq!(bvh.primitive_count(), 98);
+    let ray = accel::Ray::new(glam::Vec3A::splat(500.0), glam::Vec3A::X);
+    let mut all = Vec::new();
+    bvh.cast_ray_all(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]), &mut all);
+    let ids: Vec<u32> = all.iter().map(|h| h.primitive).collect();
+    assert_eq!(ids, vec![7, 8]);
+}
+
+#[test]
+fn binned_sah_is_within_three_percent_of_sweep_sah() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered].into_iter().enumerate() {
+        let boxes = scene(kind, 50_000, 11 + i as u64);
+        let costs = SahCosts::default();
+        let sweep = tree_stats(&Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::SweepSah)), &costs);
+        let binned = tree_stats(
+            &Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 })),
+            &costs,
+        );
+        let ratio = binned.sah_cost / sweep.sah_cost;
+        println!("{kind:?}: sweep {:.2} binned {:.2} ratio {ratio:.4}", sweep.sah_cost, binned.sah_cost);
+        assert!(ratio <= 1.03, "{kind:?}: binned/sweep = {ratio}");
+    }
+}
+
+#[test]
+fn refit_keeps_the_tree_valid_and_queries_exact() {
+    let mut boxes = scene(SceneKind::Uniform, 5_000, 21);
+    let mut bvh = Bvh::build(&boxes, &BuildConfig::default());
+    let mut rng = Rng::new(4);
+    for b in boxes.iter_mut().step_by(3) {
+        let d = rng.vec3(-20.0, 20.0);
+        *b = Aabb::new(b.min + d, b.max + d);
+    }
+    bvh.refit(&boxes);
+    bvh.validate(&boxes).unwrap();
+    for ray in rays(300, 8, 120.0) {
+        let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), closest_brute(&boxes, &ray));
+    }
+}
+
+#[test]
+fn empty_tree_answers_nothing() {
+    let bvh = Bvh::build(&[], &BuildConfig::default());
+    bvh.validate(&[]).unwrap();
+    let ray = accel::Ray::new(glam::Vec3A::ZERO, glam::Vec3A::X);
+    assert!(bvh.cast_ray(&ray, |_, _| Some(0.0)).is_none());
+    assert!(bvh.nearest_k(glam::Vec3A::ZERO, 3, |_| 0.0).is_empty());
+}
