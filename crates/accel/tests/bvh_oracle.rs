@@ -4,6 +4,7 @@
 mod scenes;
 
 use accel::bvh::stats::tree_stats;
+use accel::bvh::wide::{Bvh4, Bvh8};
 use accel::{Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, random_frustum, rays, scene};
@@ -33,13 +34,23 @@ fn closest_brute(boxes: &[Aabb], ray: &accel::Ray) -> Option<f32> {
 fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     let bvh = Bvh::build(boxes, cfg);
     bvh.validate(boxes).unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
+    check_queries(&bvh, boxes, seed, n_queries);
+    let bvh4 = Bvh4::from_bvh(&bvh);
+    bvh4.validate(boxes).unwrap_or_else(|e| panic!("4-wide {cfg:?}: {e}"));
+    check_queries(&bvh4, boxes, seed, n_queries);
+    let bvh8 = Bvh8::from_bvh(&bvh);
+    bvh8.validate(boxes).unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
+    check_queries(&bvh8, boxes, seed, n_queries);
+}
+
+fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: usize) {
     let extent = 120.0;
     // Rays: closest, any, all.
     let mut all = Vec::new();
     for ray in rays(n_queries, seed, extent) {
         let want = closest_brute(boxes, &ray);
         let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
-        assert_eq!(got.map(|h| h.t), want, "closest hit differs, {cfg:?} ray {ray:?}");
+        assert_eq!(got.map(|h| h.t), want, "closest hit differs, ray {ray:?}");
         if let Some(h) = got {
             assert_eq!(ray.intersect_aabb(&boxes[h.primitive as usize]), Some(h.t));
         }
@@ -148,9 +159,13 @@ fn a_million_primitives_build_validate_and_query() {
     let boxes = scene(SceneKind::Uniform, 1_000_000, 5);
     let bvh = Bvh::build(&boxes, &BuildConfig::default());
     bvh.validate(&boxes).unwrap();
+    let bvh8 = Bvh8::from_bvh(&bvh);
+    bvh8.validate(&boxes).unwrap();
     for ray in rays(200, 6, 120.0) {
         let want = closest_brute(&boxes, &ray);
         let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), want);
+        let got = bvh8.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
         assert_eq!(got.map(|h| h.t), want);
     }
 }

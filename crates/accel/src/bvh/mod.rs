@@ -17,6 +17,7 @@ mod split_object;
 mod split_sweep;
 pub mod stats;
 pub mod validate;
+pub mod wide;
 
 pub use config::{BuildConfig, SahCosts, SplitStrategy};
 pub use node::BvhNode;

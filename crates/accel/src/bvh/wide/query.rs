@@ -1,0 +1,229 @@
+//! [`SpatialQuery`] for wide trees: rays through the SIMD traversal, the rest per slot.
+
+use super::ray::visit_ray;
+use super::WideBvh;
+use crate::query::binary::sort_hits;
+use crate::query::TraversalStack;
+use crate::{Aabb, Containment, Frustum, Ray, RayHit, SpatialQuery, Sphere};
+use core::cmp::Reverse;
+use core::ops::ControlFlow;
+use glam::Vec3A;
+use std::collections::BinaryHeap;
+
+impl<const N: usize> WideBvh<N> {
+    /// Visits the primitives of every leaf slot whose box passes `slot_test`.
+    fn for_each_leaf_primitive<P, F>(&self, mut slot_test: P, mut visit: F) -> ControlFlow<()>
+    where
+        P: FnMut(&Aabb) -> bool,
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        if self.nodes.is_empty() || !slot_test(&self.bounds) {
+            return ControlFlow::Continue(());
+        }
+        let mut stack: TraversalStack<u32> = TraversalStack::new();
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            for slot in (0..N).filter(|&s| node.is_used(s)) {
+                if !slot_test(&node.child_aabb(slot)) {
+                    continue;
+                }
+                if node.is_leaf(slot) {
+                    self.visit_slot_primitives(n, slot, &mut visit)?;
+                } else {
+                    stack.push(node.child[slot]);
+                }
+            }
+        }
+        ControlFlow::Continue(())
+    }
+
+    fn visit_slot_primitives<F>(&self, node: u32, slot: usize, visit: &mut F) -> ControlFlow<()>
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        let n = &self.nodes[node as usize];
+        let first = n.child[slot] as usize;
+        for &p in &self.primitive_indices[first..first + n.count[slot] as usize] {
+            visit(p)?;
+        }
+        ControlFlow::Continue(())
+    }
+
+    /// Everything below a slot, without tests (a subtree the frustum fully contains).
+    fn visit_slot_subtree<F>(&self, node: u32, slot: usize, visit: &mut F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        let n = &self.nodes[node as usize];
+        if n.is_leaf(slot) {
+            let _ = self.visit_slot_primitives(node, slot, visit);
+            return;
+        }
+        let mut stack: TraversalStack<u32> = TraversalStack::new();
+        stack.push(n.child[slot]);
+        while let Some(c) = stack.pop() {
+            let cn = &self.nodes[c as usize];
+            for s in (0..N).filter(|&s| cn.is_used(s)) {
+                if cn.is_leaf(s) {
+                    let _ = self.visit_slot_primitives(c, s, visit);
+                } else {
+                    stack.push(cn.child[s]);
+                }
+            }
+        }
+    }
+}
+
+impl<const N: usize> SpatialQuery for WideBvh<N> {
+    fn cast_ray<F>(&self, ray: &Ray, mut hit: F) -> Option<RayHit>
+    where
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        let mut best: Option<RayHit> = None;
+        visit_ray(self, &mut ray, |p, ray| {
+            if let Some(t) = hit(p, ray)
+                && t >= ray.t_min
+                && t <= ray.t_max
+                && best.is_none_or(|b| t < b.t)
+            {
+                ray.t_max = t;
+                best = Some(RayHit { primitive: p, t });
+            }
+            ControlFlow::Continue(())
+        });
+        best
+    }
+
+    fn cast_ray_any<F>(&self, ray: &Ray, mut hit: F) -> Option<u32>
+    where
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        let mut ray = *ray;
+        let mut found = None;
+        visit_ray(self, &mut ray, |p, ray| {
+            if hit(p, ray) {
+                found = Some(p);
+                return ControlFlow::Break(());
+            }
+            ControlFlow::Continue(())
+        });
+        found
+    }
+
+    fn cast_ray_all<F>(&self, ray: &Ray, mut hit: F, out: &mut Vec<RayHit>)
+    where
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let start = out.len();
+        let mut ray = *ray;
+        visit_ray(self, &mut ray, |p, ray| {
+            if let Some(t) = hit(p, ray)
+                && t >= ray.t_min
+                && t <= ray.t_max
+            {
+                out.push(RayHit { primitive: p, t });
+            }
+            ControlFlow::Continue(())
+        });
+        sort_hits(&mut out[start..]);
+    }
+
+    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        let _ = self.for_each_leaf_primitive(|b| b.intersects_aabb(aabb), visit);
+    }
+
+    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        let _ = self.for_each_leaf_primitive(|b| sphere.intersects_aabb(b), visit);
+    }
+
+    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        let _ = self.for_each_leaf_primitive(|b| b.contains_point(point), visit);
+    }
+
+    fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
+    where
+        F: FnMut(u32, Containment),
+    {
+        if self.nodes.is_empty() || !frustum.intersects_aabb(&self.bounds) {
+            return;
+        }
+        let mut stack: TraversalStack<u32> = TraversalStack::new();
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            for slot in (0..N).filter(|&s| node.is_used(s)) {
+                match frustum.classify_aabb(&node.child_aabb(slot)) {
+                    Containment::Outside => {}
+                    Containment::Inside => self.visit_slot_subtree(n, slot, &mut |p| {
+                        visit(p, Containment::Inside);
+                        ControlFlow::Continue(())
+                    }),
+                    Containment::Intersecting if node.is_leaf(slot) => {
+                        let _ = self.visit_slot_primitives(n, slot, &mut |p| {
+                            visit(p, Containment::Intersecting);
+                            ControlFlow::Continue(())
+                        });
+                    }
+                    Containment::Intersecting => stack.push(node.child[slot]),
+                }
+            }
+        }
+    }
+
+    fn nearest_k<F>(&self, point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
+    where
+        F: FnMut(u32) -> f32,
+    {
+        if self.nodes.is_empty() || k == 0 {
+            return Vec::new();
+        }
+        // Best-first over slots: (box distance, node, slot); slot N stands for "the root".
+        let key = |d2: f32| d2.to_bits();
+        let mut frontier: BinaryHeap<Reverse<(u32, u32, usize)>> = BinaryHeap::new();
+        let mut best: BinaryHeap<(u32, u32)> = BinaryHeap::new(); // (d2 bits, id): max-heap
+        frontier.push(Reverse((key(self.bounds.distance_squared_to_point(point)), 0, N)));
+        while let Some(Reverse((d2, n, slot))) = frontier.pop() {
+            if best.len() == k && best.peek().is_some_and(|w| d2 > w.0) {
+                break;
+            }
+            let node = &self.nodes[n as usize];
+            if slot == N {
+                for s in (0..N).filter(|&s| node.is_used(s)) {
+                    let d = node.child_aabb(s).distance_squared_to_point(point);
+                    frontier.push(Reverse((key(d), n, s)));
+                }
+            } else if node.is_leaf(slot) {
+                let _ = self.visit_slot_primitives(n, slot, &mut |p| {
+                    let d = distance_squared(p);
+                    if !d.is_nan() {
+                        let cand = (key(d.max(0.0)), p);
+                        if best.len() < k {
+                            best.push(cand);
+                        } else if best.peek().is_some_and(|w| cand < *w) {
+                            best.pop();
+                            best.push(cand);
+                        }
+                    }
+                    ControlFlow::Continue(())
+                });
+            } else {
+                frontier.push(Reverse((d2, node.child[slot], N)));
+            }
+        }
+        // Non-negative floats order like their bit patterns, so the heaps compared bits.
+        let mut out: Vec<(u32, f32)> = best.into_iter().map(|(d, id)| (id, f32::from_bits(d))).collect();
+        out.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        out
+    }
+}
