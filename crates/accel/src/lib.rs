@@ -18,6 +18,7 @@
 
 pub mod bvh;
 pub mod geometry;
+pub mod mesh;
 pub mod query;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};

@@ -10,6 +10,7 @@ mod collapse;
 mod node;
 mod query;
 mod ray;
+mod refit;
 
 pub use node::{EMPTY_SLOT, WideNode};
 
