@@ -1,0 +1,49 @@
+//! Runtime settings of the plugin.
+
+use bevy::prelude::*;
+use core::time::Duration;
+
+/// What the trees keep and how hard they work to stay good. Change it at runtime as a
+/// resource; the plugin reads it every frame.
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default)]
+pub struct AccelSettings {
+    /// Master switch: when off, no system touches the trees (they keep their last state, and
+    /// catch up when it is turned back on).
+    pub enabled: bool,
+    /// Track only entities with [`AccelTracked`](crate::AccelTracked) instead of every entity
+    /// with an `Aabb` and a `GlobalTransform`.
+    pub require_marker: bool,
+    /// Absolute growth of each side of a dynamic leaf, in world units: motion within it costs
+    /// nothing.
+    pub fat_margin: f32,
+    /// Growth of each side of a dynamic leaf as a fraction of its size.
+    pub relative_fat_margin: f32,
+    /// Time the dynamic tree's optimiser may spend per frame, in microseconds.
+    pub optimize_budget_micros: u32,
+    /// Rebuild the dynamic tree when its SAH cost passes this multiple of a fresh build's.
+    pub rebuild_threshold: f32,
+    /// Run those rebuilds on a background thread and swap the result in when done.
+    pub background_rebuild: bool,
+}
+
+impl Default for AccelSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            require_marker: false,
+            fat_margin: 0.1,
+            relative_fat_margin: 0.05,
+            optimize_budget_micros: 500,
+            rebuild_threshold: 1.3,
+            background_rebuild: false,
+        }
+    }
+}
+
+impl AccelSettings {
+    /// The optimiser's per-frame budget as a duration.
+    pub fn optimize_budget(&self) -> Duration {
+        Duration::from_micros(self.optimize_budget_micros as u64)
+    }
+}

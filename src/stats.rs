@@ -1,0 +1,79 @@
+//! What the trees did this frame, as a resource and as Bevy diagnostics.
+
+use crate::trees::AccelTrees;
+use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
+use bevy::prelude::*;
+use core::time::Duration;
+
+/// Counts and timings of the last sync, updated every frame the plugin runs.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct AccelStats {
+    /// Entities inserted into a tree this frame.
+    pub inserted: usize,
+    /// Entities whose box was updated this frame.
+    pub updated: usize,
+    /// Entities removed from a tree this frame.
+    pub removed: usize,
+    /// Entities currently left out for a bad transform or box.
+    pub rejected: usize,
+    /// True when the static tree was rebuilt this frame.
+    pub static_rebuilt: bool,
+    /// Time spent applying inserts, updates and removals.
+    pub sync_time: Duration,
+    /// Time spent refitting, optimising and (maybe) rebuilding the dynamic tree.
+    pub maintain_time: Duration,
+    /// Entities in the dynamic tree.
+    pub dynamic_entities: usize,
+    /// Entities in the static tree.
+    pub static_entities: usize,
+    /// Depth of the dynamic tree.
+    pub dynamic_depth: usize,
+    /// Estimated SAH cost of the dynamic tree relative to a fresh build (1.0 = as good).
+    pub sah_ratio: f32,
+    /// The dynamic tree's last maintenance report, for debugging.
+    pub last_maintain: Option<String>,
+}
+
+impl AccelStats {
+    /// Sync time, in milliseconds.
+    pub const SYNC_TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/sync_time_ms");
+    /// Maintenance time, in milliseconds.
+    pub const MAINTAIN_TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/maintain_time_ms");
+    /// Tracked entities.
+    pub const ENTITIES: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/entities");
+    /// Dynamic tree depth.
+    pub const DEPTH: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/dynamic_depth");
+    /// Dynamic tree SAH ratio to a fresh build.
+    pub const SAH_RATIO: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/sah_ratio");
+
+    pub(crate) fn register(app: &mut App) {
+        for path in [Self::SYNC_TIME, Self::MAINTAIN_TIME, Self::ENTITIES, Self::DEPTH, Self::SAH_RATIO] {
+            app.register_diagnostic(Diagnostic::new(path));
+        }
+    }
+}
+
+/// Copies tree shape into the stats and the diagnostics. Counts and the SAH ratio are O(1) to
+/// read; the depth needs a walk of the tree, so it is refreshed at most once a second.
+pub(crate) fn publish_stats(
+    trees: Res<AccelTrees>,
+    mut stats: ResMut<AccelStats>,
+    mut diagnostics: Diagnostics,
+    mut last_depth_walk: Local<Option<std::time::Instant>>,
+) {
+    if trees.is_changed() {
+        stats.dynamic_entities = trees.dynamic().len();
+        stats.static_entities = trees.static_len();
+        stats.sah_ratio = trees.dynamic().quality().ratio;
+        if last_depth_walk.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+            *last_depth_walk = Some(std::time::Instant::now());
+            stats.dynamic_depth = trees.dynamic().stats(&accel::SahCosts::default()).max_depth;
+        }
+    }
+    let s = &*stats;
+    diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
+    diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || s.maintain_time.as_secs_f64() * 1e3);
+    diagnostics.add_measurement(&AccelStats::ENTITIES, || (s.dynamic_entities + s.static_entities) as f64);
+    diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_depth as f64);
+    diagnostics.add_measurement(&AccelStats::SAH_RATIO, || s.sah_ratio as f64);
+}

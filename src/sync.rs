@@ -1,0 +1,192 @@
+//! The systems that keep the trees in step with the entities.
+//!
+//! Lifecycle changes (an `Aabb` added or removed, a marker added or removed, a despawn) are
+//! caught by observers as they happen and queued; motion is caught by a `Changed` query over
+//! dynamic entities only. So a frame in which nothing was spawned, despawned or moved scans
+//! no static entity and touches no tree.
+
+use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
+use crate::settings::AccelSettings;
+use crate::stats::AccelStats;
+use crate::trees::AccelTrees;
+use accel::dynamic::DynamicBvhConfig;
+use bevy::camera::primitives::Aabb as BevyAabb;
+use bevy::ecs::entity::EntityHashSet;
+use bevy::prelude::*;
+use std::time::Instant;
+
+/// Entities whose tree membership may have changed since the last sync.
+#[derive(Resource, Default)]
+pub(crate) struct PendingMembership(EntityHashSet);
+
+/// Entities left out for a bad transform or box, each warned about once.
+#[derive(Resource, Default)]
+pub(crate) struct RejectedEntities(EntityHashSet);
+
+/// The components whose arrival or departure can change an entity's tree membership.
+type MembershipComponents = (BevyAabb, GlobalTransform, AccelStatic, AccelIgnore, AccelTracked);
+
+/// Queues the entity of a lifecycle event for a membership check at the next sync.
+fn queue_membership_check<E: EntityEvent>(event: On<E, MembershipComponents>, mut pending: ResMut<PendingMembership>) {
+    pending.0.insert(event.event_target());
+}
+
+/// Registers the observers that feed [`PendingMembership`]: one for additions and one for
+/// removals (a despawn removes every component, so it is caught too).
+pub(crate) fn add_membership_observers(app: &mut App) {
+    app.add_observer(queue_membership_check::<Add>)
+        .add_observer(queue_membership_check::<Remove>);
+}
+
+/// The world box of an entity, or why it has none. Non-finite or singular transforms would put
+/// NaN or infinities into the tree (a NaN box hides its whole subtree from every query), so
+/// they are refused here and the entity stays out until its transform is valid again.
+pub(crate) fn world_bounds(aabb: &BevyAabb, transform: &GlobalTransform) -> Result<accel::Aabb, &'static str> {
+    let affine = transform.affine();
+    let det = affine.matrix3.determinant();
+    if !det.is_finite() || !affine.translation.is_finite() {
+        return Err("its GlobalTransform is not finite");
+    }
+    if det == 0.0 {
+        return Err("its GlobalTransform has a zero scale");
+    }
+    let local = accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents);
+    if !local.is_finite() {
+        return Err("its Aabb is not finite");
+    }
+    let world = local.transformed(&affine);
+    if !world.is_finite() {
+        return Err("its world bounds overflow");
+    }
+    Ok(world)
+}
+
+type MembershipQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Option<&'static BevyAabb>,
+        Option<&'static GlobalTransform>,
+        Has<AccelStatic>,
+        Has<AccelIgnore>,
+        Has<AccelTracked>,
+    ),
+>;
+
+type MovedQuery<'w, 's> = Query<
+    'w,
+    's,
+    (Entity, &'static BevyAabb, &'static GlobalTransform, Has<AccelTracked>),
+    (
+        Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>,
+        Without<AccelStatic>,
+        Without<AccelIgnore>,
+    ),
+>;
+
+/// Inserts, moves and removes entities so the trees hold exactly the tracked entities with
+/// their current world boxes.
+pub(crate) fn sync_trees(
+    settings: Res<AccelSettings>,
+    mut trees: ResMut<AccelTrees>,
+    mut pending: ResMut<PendingMembership>,
+    mut rejected: ResMut<RejectedEntities>,
+    mut stats: ResMut<AccelStats>,
+    membership: MembershipQuery,
+    moved: MovedQuery,
+) {
+    let start = Instant::now();
+    let mut counts = SyncCounts::default();
+    let wanted = |tracked_marker: bool| tracked_marker || !settings.require_marker;
+
+    for entity in pending.0.drain() {
+        let desired = membership.get(entity).ok().and_then(|(aabb, gt, is_static, ignored, marked)| {
+            (!ignored && wanted(marked)).then_some((aabb?, gt?, is_static))
+        });
+        match desired {
+            Some((aabb, gt, is_static)) => {
+                place_checked(&mut trees, &mut rejected, entity, aabb, gt, is_static, &mut counts)
+            }
+            None => {
+                rejected.0.remove(&entity);
+                counts.removed += trees.remove(entity) as usize;
+            }
+        }
+    }
+    for (entity, aabb, gt, marked) in &moved {
+        if wanted(marked) {
+            place_checked(&mut trees, &mut rejected, entity, aabb, gt, false, &mut counts);
+        }
+    }
+    let static_rebuilt = trees.rebuild_static_if_dirty();
+
+    stats.inserted = counts.inserted;
+    stats.updated = counts.updated;
+    stats.removed = counts.removed;
+    stats.rejected = rejected.0.len();
+    stats.static_rebuilt = static_rebuilt;
+    stats.sync_time = start.elapsed();
+}
+
+#[derive(Default)]
+struct SyncCounts {
+    inserted: usize,
+    updated: usize,
+    removed: usize,
+}
+
+fn place_checked(
+    trees: &mut AccelTrees,
+    rejected: &mut RejectedEntities,
+    entity: Entity,
+    aabb: &BevyAabb,
+    gt: &GlobalTransform,
+    is_static: bool,
+    counts: &mut SyncCounts,
+) {
+    match world_bounds(aabb, gt) {
+        Ok(bounds) => {
+            if rejected.0.remove(&entity) {
+                info!("bevy_accel: entity {entity} has a valid transform again and is back in the trees");
+            }
+            let was_tracked = trees.contains(entity);
+            if trees.place(entity, bounds, is_static) {
+                if was_tracked {
+                    counts.updated += 1;
+                } else {
+                    counts.inserted += 1;
+                }
+            }
+        }
+        Err(why) => {
+            counts.removed += trees.remove(entity) as usize;
+            if rejected.0.insert(entity) {
+                warn!("bevy_accel: entity {entity} is left out of the trees: {why}");
+            }
+        }
+    }
+}
+
+/// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
+/// decayed. Does nothing in a frame where no dynamic leaf moved.
+pub(crate) fn maintain_trees(settings: Res<AccelSettings>, mut trees: ResMut<AccelTrees>, mut stats: ResMut<AccelStats>) {
+    let config = DynamicBvhConfig {
+        margin: settings.fat_margin,
+        relative_margin: settings.relative_fat_margin,
+        optimize_budget: settings.optimize_budget(),
+        rebuild_threshold: settings.rebuild_threshold,
+        background_rebuild: settings.background_rebuild,
+        ..*trees.dynamic().config()
+    };
+    if *trees.dynamic().config() != config {
+        trees.dynamic_mut().set_config(config);
+    }
+    if !trees.dynamic().needs_refit() && stats.inserted == 0 && stats.removed == 0 {
+        stats.maintain_time = Default::default();
+        return;
+    }
+    let start = Instant::now();
+    let report = trees.dynamic_mut().maintain();
+    stats.maintain_time = start.elapsed();
+    stats.last_maintain = Some(format!("{report:?}"));
+}
