@@ -28,6 +28,10 @@ impl Ray {
 
     /// Both parameters (ascending) where the infinite line meets the sphere, ignoring the
     /// ray's range; `None` when the line misses or the input is degenerate.
+    #[expect(
+        clippy::neg_cmp_op_on_partial_ord,
+        reason = "a NaN discriminant must read as a miss"
+    )]
     pub fn sphere_roots(&self, sphere: &Sphere) -> Option<(f32, f32)> {
         if self.is_degenerate() || !sphere.is_valid() {
             return None;
@@ -38,6 +42,11 @@ impl Ray {
         let c = f.length_squared() - sphere.radius * sphere.radius;
         // Closest point of the line to the centre, relative to the centre.
         let l = f + self.direction * (b / a);
+        // One correction step. `b` is a dot product of numbers of size |f|, so its rounding
+        // leaves `l` off along the direction by a few ulps of |f|: at 1e5 that is more than the
+        // radius of a 1 cm sphere, and rays dead on its centre missed. The residual `l . d` is
+        // small and computed accurately, so removing it leaves only the rounding of the products.
+        let l = l - self.direction * (l.dot(self.direction) / a);
         let discriminant = a * (sphere.radius * sphere.radius - l.length_squared());
         if !(discriminant >= 0.0) {
             return None;

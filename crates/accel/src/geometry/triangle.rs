@@ -195,9 +195,11 @@ impl WatertightRay {
         if !(det != 0.0) || det.is_nan() {
             return None;
         }
-        // The sheared space keeps winding, so a positive determinant means the ray sees the
-        // counter-clockwise side... of a left-handed 2D frame: the front face gives det < 0.
-        let front_face = det < 0.0;
+        // The edge functions are twice the signed areas of the sheared 2D triangle, positive
+        // when its corners run counter-clockwise as seen looking down the ray (the axis swap
+        // in `new` undoes the mirror of a negative dominant axis). Counter-clockwise as seen
+        // from the origin is the front face, so the front face gives det > 0.
+        let front_face = det > 0.0;
         if backfaces == Backfaces::Cull && !front_face {
             return None;
         }

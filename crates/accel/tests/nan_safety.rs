@@ -1,0 +1,189 @@
+//! Non-finite input never panics, a NaN ray misses everything, and NaN bounds report themselves
+//! invalid (a NaN bound would otherwise make every comparison false and silently drop subtrees).
+
+use accel::{Aabb, Backfaces, Containment, Frustum, Ray, Sphere, Triangle, WatertightRay};
+use glam::{Affine3A, Mat4, Vec3, Vec3A, Vec4};
+
+const SPECIALS: [f32; 8] = [
+    f32::NAN,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::MAX,
+    f32::MIN,
+    0.0,
+    -0.0,
+    1.0,
+];
+
+/// Every vector whose components come from `SPECIALS` (8^3 of them).
+fn special_vectors() -> Vec<Vec3A> {
+    let mut out = Vec::new();
+    for &x in &SPECIALS {
+        for &y in &SPECIALS {
+            for &z in &SPECIALS {
+                out.push(Vec3A::new(x, y, z));
+            }
+        }
+    }
+    out
+}
+
+fn has_nan(v: Vec3A) -> bool {
+    v.is_nan()
+}
+
+#[test]
+fn nan_rays_miss_everything() {
+    let boxes = [
+        Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0)),
+        Aabb::EVERYTHING,
+        Aabb::from_point(Vec3A::ZERO),
+    ];
+    let sphere = Sphere::new(Vec3A::ZERO, 1e30);
+    let tri = Triangle::new(
+        Vec3A::new(-1e30, -1e30, 0.0),
+        Vec3A::new(1e30, -1e30, 0.0),
+        Vec3A::new(0.0, 1e30, 0.0),
+    );
+    let ok = Vec3A::new(0.1, 0.2, 1.0);
+    for v in special_vectors().into_iter().filter(|&v| has_nan(v)) {
+        for ray in [Ray::new(v, ok), Ray::new(Vec3A::ZERO, v), Ray::new(v, v)] {
+            assert!(ray.is_degenerate(), "{ray:?}");
+            for b in &boxes {
+                assert_eq!(ray.intersect_aabb(b), None, "{ray:?} {b:?}");
+            }
+            assert_eq!(ray.intersect_sphere(&sphere), None, "{ray:?}");
+            for bf in [Backfaces::Include, Backfaces::Cull] {
+                assert_eq!(tri.intersect(&ray, bf), None, "{ray:?}");
+            }
+        }
+    }
+    // A NaN range makes the ray degenerate too.
+    let ray = Ray::with_range(Vec3A::ZERO, Vec3A::Z, f32::NAN, 1.0);
+    assert!(ray.is_degenerate() && !ray.hits_aabb(&Aabb::EVERYTHING));
+    assert!(Ray::new(Vec3A::ZERO, Vec3A::ZERO).is_degenerate());
+}
+
+#[test]
+fn box_validity() {
+    assert!(!Aabb::EMPTY.is_valid() && Aabb::EMPTY.is_empty());
+    assert!(Aabb::EVERYTHING.is_valid() && !Aabb::EVERYTHING.is_finite());
+    assert!(Aabb::new(Vec3A::splat(f32::NEG_INFINITY), Vec3A::ZERO).is_valid());
+    assert!(Aabb::from_point(Vec3A::splat(f32::MAX)).is_valid());
+    for v in special_vectors() {
+        let b = Aabb::new(v, Vec3A::splat(f32::INFINITY));
+        assert_eq!(b.is_valid(), !has_nan(v), "{b:?}");
+        let b = Aabb::new(Vec3A::splat(f32::NEG_INFINITY), v);
+        assert_eq!(b.is_valid(), !has_nan(v), "{b:?}");
+    }
+    // Unions with NaN boxes and with EMPTY.
+    let unit = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    assert_eq!(Aabb::EMPTY.union(&unit), unit);
+    assert!(!Sphere::new(Vec3A::NAN, 1.0).is_valid());
+    assert!(!Sphere::new(Vec3A::ZERO, f32::NAN).is_valid());
+    assert!(!Sphere::from_aabb(&Aabb::EMPTY).is_valid());
+}
+
+/// Every operation on every combination of special values runs to completion: the assertion is
+/// that nothing panics (overflow checks are on in tests) and that the verdicts are booleans.
+#[test]
+fn nothing_panics_on_special_values() {
+    let vs = special_vectors();
+    let frusta = [
+        Frustum::from_clip_from_world(&Mat4::perspective_infinite_reverse_rh(1.0, 1.0, 0.1)),
+        Frustum::from_clip_from_world(&Mat4::from_cols(Vec4::NAN, Vec4::NAN, Vec4::NAN, Vec4::NAN)),
+        Frustum::from_clip_from_world(&Mat4::from_cols(
+            Vec4::INFINITY,
+            Vec4::ZERO,
+            Vec4::NEG_INFINITY,
+            Vec4::ONE,
+        )),
+        Frustum::from_planes([Vec4::ZERO; 6]),
+    ];
+    let affines = [
+        Affine3A::IDENTITY,
+        Affine3A::from_scale(Vec3::splat(f32::INFINITY)),
+        Affine3A::from_translation(Vec3::NAN),
+        Affine3A::from_scale(Vec3::ZERO),
+    ];
+    let mut outcomes = 0u64;
+    for (i, &a) in vs.iter().enumerate() {
+        // A deterministic partner per vector keeps this at 512 * 512 pairs for the cheap tests
+        // and 512 * 8 for the rest.
+        for &b in vs.iter().step_by(1 + i % 7) {
+            let bx = Aabb::new(a, b);
+            let sp = Sphere::new(a, b.x);
+            let ray = Ray::new(a, b);
+            outcomes += u64::from(ray.hits_aabb(&bx)) + u64::from(ray.hits_sphere(&sp));
+            outcomes += u64::from(bx.is_valid()) + u64::from(bx.intersects_aabb(&Aabb::EVERYTHING));
+            let _ = (
+                bx.surface_area(),
+                bx.volume(),
+                bx.longest_axis(),
+                bx.center(),
+                bx.corners(),
+            );
+            let _ = (
+                sp.aabb(),
+                Sphere::from_aabb(&bx),
+                sp.merge(&Sphere::new(b, a.y)),
+                sp.intersects_aabb(&bx),
+            );
+            let _ = ray.sphere_roots(&sp);
+        }
+        for &b in vs.iter().step_by(64) {
+            let bx = Aabb::new(a.min(b), a.max(b));
+            let sp = Sphere::new(a, b.z);
+            for f in &frusta {
+                let c = f.classify_aabb(&bx);
+                assert!(matches!(
+                    c,
+                    Containment::Outside | Containment::Intersecting | Containment::Inside
+                ));
+                let _ = (
+                    f.classify_sphere(&sp),
+                    f.contains_point(a),
+                    f.intersects_aabb(&bx),
+                );
+            }
+            for m in &affines {
+                let _ = (
+                    bx.transformed(m),
+                    sp.transformed(m),
+                    Ray::new(a, b).transformed(m),
+                );
+            }
+            let tri = Triangle::new(a, b, Vec3A::ONE);
+            let wr = WatertightRay::new(&Ray::new(Vec3A::ZERO, Vec3A::new(0.3, 0.2, 1.0)));
+            let _ = (
+                wr.intersect(&tri, Backfaces::Include),
+                tri.aabb(),
+                tri.normal(),
+                tri.centroid(),
+            );
+            let nan_ray = WatertightRay::new(&Ray::new(a, b));
+            let _ = nan_ray.intersect(
+                &Triangle::new(Vec3A::X, Vec3A::Y, Vec3A::Z),
+                Backfaces::Cull,
+            );
+        }
+    }
+    assert!(outcomes > 0);
+}
+
+#[test]
+fn nan_volumes_are_outside_frusta() {
+    let f = Frustum::from_clip_from_world(&Mat4::perspective_rh(1.0, 1.0, 0.1, 100.0));
+    let nan_box = Aabb::new(Vec3A::new(f32::NAN, 0.0, -10.0), Vec3A::new(1.0, 1.0, -9.0));
+    assert_eq!(f.classify_aabb(&nan_box), Containment::Outside);
+    assert_eq!(f.classify_aabb(&Aabb::EMPTY), Containment::Outside);
+    assert_eq!(
+        f.classify_sphere(&Sphere::new(Vec3A::NAN, 1.0)),
+        Containment::Outside
+    );
+    // The whole of space straddles every finite frustum.
+    assert_eq!(
+        f.classify_aabb(&Aabb::EVERYTHING),
+        Containment::Intersecting
+    );
+}
