@@ -22,11 +22,11 @@ pub struct AccelTracked;
 
 /// Marks an entity that never moves: it goes in the static tree.
 ///
-/// The static tree is built once from all static entities and rebuilt only when one is added
-/// or removed; it is never refit, and static entities are not watched for motion at all, which
-/// is what makes a frame of a static world cost nothing. Its box is read when the marker (or
-/// the entity's `Aabb`) is added. To move a static entity, remove the marker first (it then
-/// joins the dynamic tree), or re-insert the marker after moving it.
+/// The static tree is built once from all static entities and rebuilt only when one is added,
+/// removed or moved; it is never refit. Moving a static entity is allowed but costs a rebuild
+/// of the whole static tree: things that move often belong in the dynamic tree. With
+/// [`AccelSettings::watch_static_motion`](crate::AccelSettings::watch_static_motion) off,
+/// static entities are not watched for motion at all (a moved one keeps its old box).
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Default)]
 pub struct AccelStatic;

@@ -14,6 +14,10 @@ pub struct AccelSettings {
     /// Track only entities with [`AccelTracked`](crate::AccelTracked) instead of every entity
     /// with an `Aabb` and a `GlobalTransform`.
     pub require_marker: bool,
+    /// Watch [`AccelStatic`](crate::AccelStatic) entities for motion too, rebuilding the
+    /// static tree when one moves. Turning it off saves a change-detection scan over the
+    /// static entities each frame; a static entity that moves then keeps its old box.
+    pub watch_static_motion: bool,
     /// Absolute growth of each side of a dynamic leaf, in world units: motion within it costs
     /// nothing.
     pub fat_margin: f32,
@@ -32,6 +36,7 @@ impl Default for AccelSettings {
         Self {
             enabled: true,
             require_marker: false,
+            watch_static_motion: true,
             fat_margin: 0.1,
             relative_fat_margin: 0.05,
             optimize_budget_micros: 500,

@@ -73,15 +73,11 @@ type MembershipQuery<'w, 's> = Query<
     ),
 >;
 
-type MovedQuery<'w, 's> = Query<
+type MovedQuery<'w, 's, StaticFilter> = Query<
     'w,
     's,
     (Entity, &'static BevyAabb, &'static GlobalTransform, Has<AccelTracked>),
-    (
-        Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>,
-        Without<AccelStatic>,
-        Without<AccelIgnore>,
-    ),
+    (Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>, StaticFilter, Without<AccelIgnore>),
 >;
 
 /// Inserts, moves and removes entities so the trees hold exactly the tracked entities with
@@ -93,7 +89,8 @@ pub(crate) fn sync_trees(
     mut rejected: ResMut<RejectedEntities>,
     mut stats: ResMut<AccelStats>,
     membership: MembershipQuery,
-    moved: MovedQuery,
+    moved: MovedQuery<Without<AccelStatic>>,
+    moved_static: MovedQuery<With<AccelStatic>>,
 ) {
     let start = Instant::now();
     let mut counts = SyncCounts::default();
@@ -116,6 +113,15 @@ pub(crate) fn sync_trees(
     for (entity, aabb, gt, marked) in &moved {
         if wanted(marked) {
             place_checked(&mut trees, &mut rejected, entity, aabb, gt, false, &mut counts);
+        }
+    }
+    if settings.watch_static_motion {
+        // A static entity that moved anyway (an editor, a level change) gets its new box in a
+        // rebuilt static tree rather than a stale one.
+        for (entity, aabb, gt, marked) in &moved_static {
+            if wanted(marked) {
+                place_checked(&mut trees, &mut rejected, entity, aabb, gt, true, &mut counts);
+            }
         }
     }
     let static_rebuilt = trees.rebuild_static_if_dirty();

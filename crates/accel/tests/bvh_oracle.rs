@@ -4,6 +4,7 @@
 mod scenes;
 
 use accel::bvh::stats::tree_stats;
+use accel::bvh::SphereBvh;
 use accel::bvh::wide::{Bvh4, Bvh8};
 use accel::{Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
 use core::ops::ControlFlow;
@@ -41,6 +42,7 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     let bvh8 = Bvh8::from_bvh(&bvh);
     bvh8.validate(boxes).unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
     check_queries(&bvh8, boxes, seed, n_queries);
+    check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
 }
 
 fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: usize) {
@@ -243,4 +245,25 @@ fn empty_tree_answers_nothing() {
     let ray = accel::Ray::new(glam::Vec3A::ZERO, glam::Vec3A::X);
     assert!(bvh.cast_ray(&ray, |_, _| Some(0.0)).is_none());
     assert!(bvh.nearest_k(glam::Vec3A::ZERO, 3, |_| 0.0).is_empty());
+}
+
+/// The parallel build makes the serial build's tree (same splits, same leaves), so it has the
+/// same cost and answers the same; only the node order differs.
+#[cfg(feature = "rayon")]
+#[test]
+fn parallel_build_equals_serial_build() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate].into_iter().enumerate() {
+        let boxes = scene(kind, 100_000, 40 + i as u64);
+        let cfg = BuildConfig::default();
+        let serial = Bvh::build(&boxes, &cfg);
+        let parallel = Bvh::build_parallel(&boxes, &cfg);
+        parallel.validate(&boxes).unwrap();
+        let (s, p) = (tree_stats(&serial, &cfg.sah), tree_stats(&parallel, &cfg.sah));
+        assert_eq!(s, p, "{kind:?}");
+        for ray in rays(300, 3, 120.0) {
+            let a = serial.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+            let b = parallel.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+            assert_eq!(a.map(|h| h.t), b.map(|h| h.t));
+        }
+    }
 }

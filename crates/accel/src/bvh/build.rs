@@ -42,51 +42,65 @@ pub(super) enum SplitOutcome {
 /// Builds the flat node array and the primitive order for `bounds`.
 ///
 /// Primitives with invalid bounds (NaN, or empty) are left out: they could never be hit, and a
-/// NaN in a node box would hide its whole subtree from every query. The count of those left
-/// out is returned alongside.
+/// NaN in a node box would hide its whole subtree from every query.
 pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+    let mut prims = collect_prims(bounds);
+    let nodes = build_subtree(&mut prims, config, 0, 0);
+    (nodes, prims.iter().map(|p| p.index).collect())
+}
+
+pub(super) fn collect_prims(bounds: &[Aabb]) -> Vec<BuildPrim> {
     assert!(
         bounds.len() < u32::MAX as usize,
         "a BVH holds at most u32::MAX - 1 primitives"
     );
-    let mut prims: Vec<BuildPrim> = bounds
+    bounds
         .iter()
         .enumerate()
         .filter(|(_, b)| b.is_valid())
         .map(|(i, b)| BuildPrim::new(*b, i as u32))
-        .collect();
+        .collect()
+}
+
+/// One node's decision: its box, and where its primitives split (`None` for a leaf).
+pub(super) fn split_node(prims: &mut [BuildPrim], depth: u32, config: &BuildConfig) -> (Aabb, Option<usize>) {
+    let (node_bounds, centroid_bounds) = bounds_of(prims);
+    let count = prims.len();
+    let outcome = if count == 1 || depth >= config.max_depth {
+        SplitOutcome::Leaf
+    } else {
+        choose_split(prims, &node_bounds, &centroid_bounds, config)
+    };
+    let mid = match outcome {
+        SplitOutcome::Split(mid) => Some(mid),
+        // Coincident centroids: positions cannot separate them, so split by count if the
+        // leaf would be too big. Halving terminates in log2(n) levels, even for a million
+        // identical boxes.
+        SplitOutcome::NoPositionalSplit if count > config.max_leaf_size as usize => Some(count / 2),
+        SplitOutcome::NoPositionalSplit | SplitOutcome::Leaf => None,
+    };
+    (node_bounds, mid)
+}
+
+/// Builds the tree over `prims` with its root at index 0 of the returned array. Leaves refer to
+/// primitive slots `prim_offset + i`; the root sits at `depth`. Children always follow their
+/// parent in the array (refits rely on it).
+pub(super) fn build_subtree(prims: &mut [BuildPrim], config: &BuildConfig, prim_offset: usize, depth: u32) -> Vec<BvhNode> {
     let n = prims.len();
     if n == 0 {
-        return (Vec::new(), Vec::new());
+        return Vec::new();
     }
     let mut nodes = Vec::with_capacity(2 * n - 1);
     nodes.push(BvhNode::default());
     // An explicit stack, not recursion: a depth limit of 64 is the default, but a user may ask
     // for more, and the thread's stack must not be what decides.
-    let mut work = vec![(0usize, 0usize, n, 0u32)];
+    let mut work = vec![(0usize, 0usize, n, depth)];
     while let Some((node, start, end, depth)) = work.pop() {
-        let slice = &mut prims[start..end];
-        let (node_bounds, centroid_bounds) = bounds_of(slice);
+        let (node_bounds, mid) = split_node(&mut prims[start..end], depth, config);
         nodes[node].set_aabb(&node_bounds);
-        let count = end - start;
-        let outcome = if count == 1 || depth >= config.max_depth {
-            SplitOutcome::Leaf
-        } else {
-            choose_split(slice, &node_bounds, &centroid_bounds, config)
-        };
-        let outcome = match outcome {
-            // Coincident centroids: positions cannot separate them, so split by count if the
-            // leaf would be too big. Halving terminates in log2(n) levels, even for a million
-            // identical boxes.
-            SplitOutcome::NoPositionalSplit if count > config.max_leaf_size as usize => {
-                SplitOutcome::Split(count / 2)
-            }
-            SplitOutcome::NoPositionalSplit => SplitOutcome::Leaf,
-            other => other,
-        };
-        match outcome {
-            SplitOutcome::Split(mid) => {
-                debug_assert!(mid > 0 && mid < count);
+        match mid {
+            Some(mid) => {
+                debug_assert!(mid > 0 && mid < end - start);
                 let left = nodes.len();
                 nodes.push(BvhNode::default());
                 nodes.push(BvhNode::default());
@@ -95,14 +109,13 @@ pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode
                 work.push((left + 1, start + mid, end, depth + 1));
                 work.push((left, start, start + mid, depth + 1));
             }
-            _ => {
-                nodes[node].first = start as u32;
-                nodes[node].count = count as u32;
+            None => {
+                nodes[node].first = (prim_offset + start) as u32;
+                nodes[node].count = (end - start) as u32;
             }
         }
     }
-    let order = prims.iter().map(|p| p.index).collect();
-    (nodes, order)
+    nodes
 }
 
 fn choose_split(

@@ -4,23 +4,28 @@
 //! - `build` and the `split_*` files: the top-down builder.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
+//! - [`SphereBvh`]: the same topology bounded by spheres instead of boxes.
 //! - [`wide`]: the tree collapsed to 4- or 8-wide nodes for SIMD traversal.
 //!
 //! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
 //! tree ([`crate::query::binary`]).
 
 mod build;
+#[cfg(feature = "rayon")]
+mod build_parallel;
 pub mod config;
 mod node;
 mod split_binned;
 mod split_object;
 mod split_sweep;
+mod sphere_tree;
 pub mod stats;
 pub mod validate;
 pub mod wide;
 
 pub use config::{BuildConfig, SahCosts, SplitStrategy};
 pub use node::BvhNode;
+pub use sphere_tree::SphereBvh;
 pub use split_binned::MAX_BINS;
 
 use crate::query::BoundingTree;
@@ -54,6 +59,17 @@ impl Bvh {
     /// Builds a tree over the boxes with the given configuration (single-threaded).
     pub fn build(bounds: &[Aabb], config: &BuildConfig) -> Self {
         let (nodes, primitive_indices) = build::build_nodes(bounds, config);
+        Self {
+            nodes,
+            primitive_indices,
+        }
+    }
+
+    /// Builds like [`Bvh::build`] on rayon's thread pool: the same splits and leaves, with
+    /// subtrees built in parallel (cargo feature `rayon`).
+    #[cfg(feature = "rayon")]
+    pub fn build_parallel(bounds: &[Aabb], config: &BuildConfig) -> Self {
+        let (nodes, primitive_indices) = build_parallel::build_nodes_parallel(bounds, config);
         Self {
             nodes,
             primitive_indices,

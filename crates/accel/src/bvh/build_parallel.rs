@@ -1,0 +1,57 @@
+//! The parallel build: the same splits as the serial builder, subtrees built on rayon's pool.
+
+use super::build::{BuildPrim, build_subtree, collect_prims, split_node};
+use super::config::BuildConfig;
+use super::node::BvhNode;
+use crate::Aabb;
+
+/// Below this many primitives a subtree is built serially: a task costs more than it saves.
+const SERIAL_BELOW: usize = 4096;
+
+/// Builds like [`super::build::build_nodes`], splitting the top of the tree serially and
+/// handing the two halves of every large node to `rayon::join`. The result is the tree the
+/// serial build makes (same splits, same leaves), laid out in another node order.
+pub(super) fn build_nodes_parallel(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+    let mut prims = collect_prims(bounds);
+    let nodes = build_parallel(&mut prims, config, 0, 0);
+    (nodes, prims.iter().map(|p| p.index).collect())
+}
+
+fn build_parallel(prims: &mut [BuildPrim], config: &BuildConfig, prim_offset: usize, depth: u32) -> Vec<BvhNode> {
+    if prims.len() < SERIAL_BELOW {
+        return build_subtree(prims, config, prim_offset, depth);
+    }
+    let (node_bounds, mid) = split_node(prims, depth, config);
+    let mut root = BvhNode::default();
+    root.set_aabb(&node_bounds);
+    let Some(mid) = mid else {
+        root.first = prim_offset as u32;
+        root.count = prims.len() as u32;
+        return vec![root];
+    };
+    let (left, right) = prims.split_at_mut(mid);
+    let (l, r) = rayon::join(
+        || build_parallel(left, config, prim_offset, depth + 1),
+        || build_parallel(right, config, prim_offset + mid, depth + 1),
+    );
+    // Layout: root, left root, right root, then the rest of each subtree. Keeping the two
+    // children adjacent is what lets one index name both.
+    let remap_left = |i: u32| if i == 0 { 1 } else { i + 2 };
+    let right_base = l.len() as u32 + 1;
+    let remap_right = |i: u32| if i == 0 { 2 } else { right_base + i };
+    let fix = |mut n: BvhNode, remap: &dyn Fn(u32) -> u32| {
+        if !n.is_leaf() {
+            n.first = remap(n.first);
+        }
+        n
+    };
+    root.first = 1;
+    root.count = 0;
+    let mut nodes = Vec::with_capacity(1 + l.len() + r.len());
+    nodes.push(root);
+    nodes.push(fix(l[0], &remap_left));
+    nodes.push(fix(r[0], &remap_right));
+    nodes.extend(l[1..].iter().map(|&n| fix(n, &remap_left)));
+    nodes.extend(r[1..].iter().map(|&n| fix(n, &remap_right)));
+    nodes
+}

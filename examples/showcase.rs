@@ -1,0 +1,108 @@
+//! Thousands of moving cubes kept in the trees by `AccelPlugin`; the cube under the cursor (or
+//! under the screen centre) is found through the trees every frame and highlighted.
+//!
+//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` saves a frame and exits.
+
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use bevy::window::PrimaryWindow;
+use bevy_accel::accel::{Ray, SpatialQuery};
+use bevy_accel::prelude::*;
+
+const GRID: i32 = 40;
+
+#[derive(Component)]
+struct Bob {
+    home: Vec3,
+    phase: f32,
+}
+
+#[derive(Resource)]
+struct Palette {
+    normal: Handle<StandardMaterial>,
+    highlighted: Handle<StandardMaterial>,
+}
+
+#[derive(Resource, Default)]
+struct Highlighted(Option<Entity>);
+
+fn main() {
+    App::new()
+        .add_plugins((DefaultPlugins, AccelPlugin::default()))
+        .init_resource::<Highlighted>()
+        .add_systems(Startup, setup)
+        .add_systems(Update, (bob, screenshot_and_exit))
+        .add_systems(PostUpdate, highlight_under_cursor.after(AccelSystems::Maintain))
+        .run();
+}
+
+fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+    let cube = meshes.add(Cuboid::new(0.8, 0.8, 0.8));
+    let normal = materials.add(Color::srgb(0.35, 0.45, 0.6));
+    let highlighted = materials.add(Color::srgb(1.0, 0.55, 0.1));
+    for x in -GRID / 2..GRID / 2 {
+        for z in -GRID / 2..GRID / 2 {
+            let home = Vec3::new(x as f32 * 1.5, 0.0, z as f32 * 1.5);
+            let mut e = commands.spawn((Mesh3d(cube.clone()), MeshMaterial3d(normal.clone()), Transform::from_translation(home)));
+            // Every other row bobs; the rest never move and live in the static tree.
+            if z % 2 == 0 {
+                e.insert(Bob { home, phase: (x * 7 + z * 3) as f32 * 0.3 });
+            } else {
+                e.insert(AccelStatic);
+            }
+        }
+    }
+    commands.insert_resource(Palette { normal, highlighted });
+    commands.spawn((DirectionalLight::default(), Transform::from_xyz(3.0, 10.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 28.0, 38.0).looking_at(Vec3::ZERO, Vec3::Y)));
+}
+
+fn bob(time: Res<Time>, mut q: Query<(&Bob, &mut Transform)>) {
+    let t = time.elapsed_secs();
+    for (b, mut tf) in &mut q {
+        tf.translation = b.home + Vec3::Y * (t * 2.0 + b.phase).sin() * 1.5;
+    }
+}
+
+/// Casts the pointer's ray through the trees: candidates by box, nearest first.
+fn highlight_under_cursor(
+    window: Single<&Window, With<PrimaryWindow>>,
+    camera: Single<(&Camera, &GlobalTransform)>,
+    trees: Res<AccelTrees>,
+    palette: Res<Palette>,
+    mut highlighted: ResMut<Highlighted>,
+    mut materials: Query<&mut MeshMaterial3d<StandardMaterial>>,
+) {
+    let (camera, camera_tf) = *camera;
+    let pointer = window.cursor_position().unwrap_or(window.size() * 0.5);
+    let Ok(ray) = camera.viewport_to_world(camera_tf, pointer) else { return };
+    let ray = Ray::new(ray.origin, Vec3::from(ray.direction));
+    let hit = trees
+        .query()
+        .cast_ray(&ray, |slot, r| r.intersect_aabb(&trees.world_bounds(slot)))
+        .and_then(|h| trees.entity(h.primitive));
+    if hit == highlighted.0 {
+        return;
+    }
+    for (entity, handle) in [(highlighted.0, &palette.normal), (hit, &palette.highlighted)] {
+        if let Some(mut m) = entity.and_then(|e| materials.get_mut(e).ok()) {
+            m.0 = handle.clone();
+        }
+    }
+    if let Some(e) = hit {
+        info!("pointer over {e}");
+    }
+    highlighted.0 = hit;
+}
+
+fn screenshot_and_exit(mut commands: Commands, mut frame: Local<u32>, mut exit: MessageWriter<AppExit>) {
+    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else { return };
+    *frame += 1;
+    if *frame == 30 {
+        commands.spawn(Screenshot::primary_window()).observe(save_to_disk(path));
+    }
+    if *frame == 40 {
+        exit.write(AppExit::Success);
+    }
+}
+

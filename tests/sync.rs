@@ -1,0 +1,215 @@
+//! The trees follow the entities: spawns, motion, despawns, reparenting and bad transforms,
+//! frame after frame, checked against the ECS after every frame.
+
+use bevy::camera::primitives::Aabb;
+use bevy::ecs::entity::EntityHashSet;
+use bevy::prelude::*;
+use bevy_accel::accel::SpatialQuery;
+use bevy_accel::prelude::*;
+use bevy_accel::TreeSlot;
+
+/// A reproducible stream for the scenario (PCG32).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+    }
+    fn f32(&mut self) -> f32 {
+        (self.next() >> 8) as f32 / (1 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+    fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
+    }
+}
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin::default()));
+    app
+}
+
+fn unit_aabb() -> Aabb {
+    Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
+}
+
+/// Every entity that should be tracked is, with a tree box containing its world box; nothing
+/// else is; the trees are valid.
+fn check_consistency(app: &mut App) {
+    let world = app.world_mut();
+    let mut q = world.query_filtered::<(Entity, &Aabb, &GlobalTransform), Without<AccelIgnore>>();
+    let mut expected = EntityHashSet::default();
+    let boxes: Vec<(Entity, bevy_accel::accel::Aabb)> = q
+        .iter(world)
+        .filter_map(|(e, aabb, gt)| {
+            let a = gt.affine();
+            let ok = a.matrix3.determinant().is_finite() && a.matrix3.determinant() != 0.0 && a.translation.is_finite();
+            ok.then(|| {
+                (e, bevy_accel::accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents).transformed(&a))
+            })
+        })
+        .collect();
+    for (e, _) in &boxes {
+        expected.insert(*e);
+    }
+    let trees = world.resource::<AccelTrees>();
+    let tracked: EntityHashSet = trees.iter().map(|(e, _)| e).collect();
+    assert_eq!(tracked.len(), trees.len());
+    assert_eq!(tracked, expected, "tracked set differs from the ECS");
+    trees.dynamic().validate().unwrap();
+    for (e, world_box) in boxes {
+        let (slot, tree) = trees.location(e).unwrap();
+        assert_eq!(trees.entity(slot), Some(e));
+        match tree {
+            TreeSlot::Dynamic(h) => {
+                let fat = trees.dynamic().fat_bounds(h).unwrap();
+                assert!(fat.contains_aabb(&world_box), "{e}: fat box {fat:?} misses {world_box:?}");
+            }
+            TreeSlot::Static => assert_eq!(trees.world_bounds(slot), world_box),
+        }
+    }
+    // Every slot the static tree returns is a tracked static entity.
+    let n_static = trees.iter().filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static).count();
+    assert_eq!(trees.static_tree().primitive_count(), n_static);
+}
+
+#[test]
+fn plugin_builds_and_runs_on_an_empty_world() {
+    let mut app = app();
+    app.update();
+    app.update();
+    assert!(app.world().resource::<AccelTrees>().is_empty());
+}
+
+#[test]
+fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
+    let mut app = app();
+    let mut rng = Rng(7);
+    let mut parents = Vec::new();
+    for _ in 0..20 {
+        parents.push(app.world_mut().spawn(Transform::from_translation(rng.vec3(50.0))).id());
+    }
+    let mut live: Vec<Entity> = Vec::new();
+    for frame in 0..120 {
+        let world = app.world_mut();
+        // Spawn: some free, some children of a moving parent, some static, some ignored.
+        for i in 0..60 {
+            let t = Transform::from_translation(rng.vec3(60.0)).with_scale(Vec3::splat(rng.range(0.2, 3.0)));
+            let mut e = world.spawn((t, unit_aabb()));
+            match i % 6 {
+                0 => {
+                    e.insert(ChildOf(parents[(rng.next() % 20) as usize]));
+                }
+                1 => {
+                    e.insert(AccelStatic);
+                }
+                2 if frame % 3 == 0 => {
+                    e.insert(AccelIgnore);
+                }
+                _ => {}
+            }
+            live.push(e.id());
+        }
+        // Move parents and some entities.
+        for &p in &parents {
+            world.get_mut::<Transform>(p).unwrap().translation += rng.vec3(2.0);
+        }
+        for _ in 0..100 {
+            let e = live[(rng.next() as usize) % live.len()];
+            if let Some(mut t) = world.get_mut::<Transform>(e) {
+                t.translation += rng.vec3(5.0);
+            }
+        }
+        // Reparent a few, toggle markers on a few, despawn some.
+        for _ in 0..5 {
+            let e = live[(rng.next() as usize) % live.len()];
+            let p = parents[(rng.next() % 20) as usize];
+            world.entity_mut(e).insert(ChildOf(p));
+        }
+        for _ in 0..5 {
+            let e = live[(rng.next() as usize) % live.len()];
+            let mut em = world.entity_mut(e);
+            if em.contains::<AccelIgnore>() {
+                em.remove::<AccelIgnore>();
+            } else if em.contains::<AccelStatic>() {
+                em.remove::<AccelStatic>();
+            } else {
+                em.insert(AccelStatic);
+            }
+        }
+        for _ in 0..40 {
+            let i = (rng.next() as usize) % live.len();
+            let e = live.swap_remove(i);
+            world.despawn(e);
+        }
+        if frame % 10 == 5 {
+            // A moving parent despawned with its children.
+            let p = parents.remove(0);
+            world.despawn(p);
+            live.retain(|&e| world.get_entity(e).is_ok());
+            parents.push(world.spawn(Transform::from_translation(rng.vec3(50.0))).id());
+        }
+        app.update();
+        check_consistency(&mut app);
+    }
+    assert!(app.world().resource::<AccelTrees>().len() > 2000);
+}
+
+#[test]
+fn bad_transforms_stay_out_until_valid_again() {
+    let mut app = app();
+    let good = app.world_mut().spawn((Transform::default(), unit_aabb())).id();
+    let nan = app.world_mut().spawn((Transform::from_xyz(f32::NAN, 0.0, 0.0), unit_aabb())).id();
+    let flat = app.world_mut().spawn((Transform::from_scale(Vec3::new(1.0, 0.0, 1.0)), unit_aabb())).id();
+    app.update();
+    {
+        let trees = app.world().resource::<AccelTrees>();
+        assert!(trees.contains(good) && !trees.contains(nan) && !trees.contains(flat));
+        assert_eq!(app.world().resource::<AccelStats>().rejected, 2);
+    }
+    check_consistency(&mut app);
+    // The good one goes bad, the bad ones get fixed.
+    app.world_mut().get_mut::<Transform>(good).unwrap().translation.y = f32::INFINITY;
+    app.world_mut().get_mut::<Transform>(nan).unwrap().translation.x = 1.0;
+    app.world_mut().get_mut::<Transform>(flat).unwrap().scale = Vec3::ONE;
+    app.update();
+    let trees = app.world().resource::<AccelTrees>();
+    assert!(!trees.contains(good) && trees.contains(nan) && trees.contains(flat));
+    check_consistency(&mut app);
+}
+
+#[test]
+fn a_frame_with_no_changes_does_no_tree_work() {
+    let mut app = app();
+    for i in 0..1000 {
+        let mut e = app.world_mut().spawn((Transform::from_xyz(i as f32, 0.0, 0.0), unit_aabb()));
+        if i % 2 == 0 {
+            e.insert(AccelStatic);
+        }
+    }
+    app.update();
+    app.update();
+    let stats = app.world().resource::<AccelStats>().clone();
+    assert_eq!((stats.inserted, stats.updated, stats.removed), (0, 0, 0));
+    assert!(!stats.static_rebuilt);
+    assert_eq!(stats.dynamic_entities + stats.static_entities, 1000);
+    assert!(!app.world().resource::<AccelTrees>().dynamic().needs_refit());
+}
+
+#[test]
+fn rays_find_entities_through_both_trees() {
+    let mut app = app();
+    let near = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, -5.0), unit_aabb())).id();
+    let far = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, -9.0), unit_aabb(), AccelStatic)).id();
+    app.update();
+    let trees = app.world().resource::<AccelTrees>();
+    let ray = bevy_accel::accel::Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
+    let mut hits = Vec::new();
+    trees.query().cast_ray_all(&ray, |s, r| r.intersect_aabb(&trees.world_bounds(s)), &mut hits);
+    let order: Vec<Entity> = hits.iter().map(|h| trees.entity(h.primitive).unwrap()).collect();
+    assert_eq!(order, vec![near, far]);
+}
