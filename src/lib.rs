@@ -42,12 +42,16 @@
 #![warn(missing_docs)]
 
 mod components;
+#[cfg(feature = "culling")]
+pub mod culling;
 mod settings;
 mod stats;
 mod sync;
 mod trees;
 
 pub use accel;
+#[cfg(feature = "culling")]
+pub use culling::AccelCullingPlugin;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 pub use settings::AccelSettings;
 pub use stats::AccelStats;

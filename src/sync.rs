@@ -23,6 +23,13 @@ pub(crate) struct PendingMembership(EntityHashSet);
 #[derive(Resource, Default)]
 pub(crate) struct RejectedEntities(EntityHashSet);
 
+impl RejectedEntities {
+    /// The entities currently left out.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = Entity> + '_ {
+        self.0.iter().copied()
+    }
+}
+
 /// The components whose arrival or departure can change an entity's tree membership.
 type MembershipComponents = (BevyAabb, GlobalTransform, AccelStatic, AccelIgnore, AccelTracked);
 

@@ -1,0 +1,152 @@
+//! The culling system: trees for the entities they hold, Bevy's tests for the rest.
+
+use crate::components::AccelIgnore;
+use crate::sync::RejectedEntities;
+use crate::trees::AccelTrees;
+use accel::{Containment, Frustum as AccelFrustum};
+use bevy::camera::primitives::{Aabb, Frustum, Sphere};
+use bevy::camera::visibility::{
+    NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass, VisibilityRange,
+    VisibleEntities, VisibleEntityRanges,
+};
+use bevy::math::Vec4;
+use bevy::prelude::*;
+use core::time::Duration;
+use std::time::Instant;
+
+/// What the last culling pass did, summed over views.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct CullingStats {
+    /// Views culled.
+    pub views: usize,
+    /// Entities reported visible (per view, summed).
+    pub visible: usize,
+    /// Entities accepted whole, inside a subtree fully in view, with no per-entity test.
+    pub accepted_by_subtree: usize,
+    /// Entities tested one by one (leaves crossing a plane, and entities not in the trees).
+    pub tested: usize,
+    /// Time spent in the culling system.
+    pub time: Duration,
+}
+
+type ViewItem = (
+    Entity,
+    &'static mut VisibleEntities,
+    &'static Frustum,
+    Option<&'static RenderLayers>,
+    &'static Camera,
+    Has<NoCpuCulling>,
+);
+
+type CandidateItem = (
+    &'static InheritedVisibility,
+    &'static mut ViewVisibility,
+    Option<&'static VisibilityClass>,
+    Option<&'static RenderLayers>,
+    Option<&'static Aabb>,
+    Option<&'static Sphere>,
+    &'static GlobalTransform,
+    Has<NoFrustumCulling>,
+    Has<VisibilityRange>,
+);
+
+/// The view frustum as the trees test it. Bevy culls against the near plane but never the far
+/// one, so the far half-space is replaced by one containing all space.
+fn tree_frustum(frustum: &Frustum) -> AccelFrustum {
+    let mut planes = frustum.half_spaces.map(|h| h.normal_d());
+    planes[AccelFrustum::FAR] = Vec4::new(0.0, 0.0, 0.0, 1.0);
+    AccelFrustum::from_planes(planes)
+}
+
+/// Sets `ViewVisibility` and fills `VisibleEntities` for every active view.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cull_views_with_trees(
+    trees: Res<AccelTrees>,
+    rejected: Res<RejectedEntities>,
+    ranges: Option<Res<VisibleEntityRanges>>,
+    mut views: Query<ViewItem>,
+    mut candidates: Query<CandidateItem, Without<NoCpuCulling>>,
+    untracked: Query<Entity, (With<ViewVisibility>, Without<NoCpuCulling>, Or<(Without<Aabb>, With<AccelIgnore>)>)>,
+    mut stats: ResMut<CullingStats>,
+) {
+    let start = Instant::now();
+    let mut s = CullingStats::default();
+    let ranges = ranges.as_deref();
+    for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in &mut views {
+        if !camera.is_active {
+            continue;
+        }
+        s.views += 1;
+        visible_entities.clear_all();
+        let view_mask = view_layers.cloned().unwrap_or_default();
+        // Decides one entity as Bevy's `check_visibility_cpu_culling` does; `exact` false
+        // means a tree already proved it inside the frustum.
+        let mut consider = |entity: Entity, exact: bool, s: &mut CullingStats| {
+            let Ok((inherited, mut view_visibility, class, layers, aabb, sphere, transform, no_frustum_culling, has_range)) =
+                candidates.get_mut(entity)
+            else {
+                return;
+            };
+            if !inherited.get() || !view_mask.intersects(layers.unwrap_or_default()) {
+                return;
+            }
+            if has_range && ranges.is_some_and(|r| !r.entity_is_in_range_of_view(entity, view)) {
+                return;
+            }
+            if exact && !no_frustum_culling && !no_cpu_culling_view {
+                s.tested += 1;
+                if !bevy_frustum_test(frustum, aabb, sphere, transform) {
+                    return;
+                }
+            } else if !exact {
+                s.accepted_by_subtree += 1;
+            }
+            view_visibility.set_visible();
+            s.visible += 1;
+            if let Some(class) = class {
+                for id in class.iter() {
+                    visible_entities.get_mut(*id).push(entity);
+                }
+            }
+        };
+        if no_cpu_culling_view {
+            // The camera opted out of culling: everything passes, so the trees have nothing
+            // to skip. Walk what they hold without tests.
+            for (entity, _) in trees.iter() {
+                consider(entity, true, &mut s);
+            }
+        } else {
+            trees.query().for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
+                if let Some(entity) = trees.entity(slot) {
+                    consider(entity, containment != Containment::Inside, &mut s);
+                }
+            });
+        }
+        for entity in untracked.iter().chain(rejected.iter()) {
+            consider(entity, true, &mut s);
+        }
+        // Bevy diffs these lists in O(n) and needs them sorted.
+        for list in visible_entities.entities.values_mut() {
+            list.sort_unstable();
+        }
+    }
+    s.time = start.elapsed();
+    *stats = s;
+}
+
+/// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane
+/// included and far plane excluded; entities with neither `Aabb` nor `Sphere` pass.
+fn bevy_frustum_test(frustum: &Frustum, aabb: Option<&Aabb>, sphere: Option<&Sphere>, transform: &GlobalTransform) -> bool {
+    if let Some(aabb) = aabb {
+        let world_from_local = transform.affine();
+        let model_sphere = Sphere {
+            center: world_from_local.transform_point3a(aabb.center),
+            radius: transform.radius_vec3a(aabb.half_extents),
+        };
+        frustum.intersects_sphere(&model_sphere, false) && frustum.intersects_obb(aabb, &world_from_local, true, false)
+    } else if let Some(sphere) = sphere {
+        frustum.intersects_sphere(sphere, false)
+    } else {
+        true
+    }
+}
