@@ -10,7 +10,7 @@ mod system;
 
 use crate::AccelSystems;
 use bevy::app::ScheduleCleanupPolicy;
-use bevy::camera::visibility::{VisibilitySystems, check_visibility_cpu_culling};
+use bevy::camera::visibility::{VisibilitySystems, check_visibility_cpu_culling, check_visibility_ranges};
 use bevy::prelude::*;
 
 pub use system::CullingStats;
@@ -30,7 +30,8 @@ impl Plugin for AccelCullingPlugin {
             PostUpdate,
             system::cull_views_with_trees
                 .in_set(VisibilitySystems::CheckVisibility)
-                .after(AccelSystems::Stats),
+                .after(AccelSystems::Stats)
+                .after(check_visibility_ranges),
         );
     }
 

@@ -17,8 +17,28 @@ pub(super) fn split(
     config: &BuildConfig,
     may_stop: bool,
 ) -> SplitOutcome {
-    let bins = bins.clamp(2, MAX_BINS);
+    // Only as many bins as there are primitives can be non-empty. Most nodes of a tree are
+    // small, and clearing 3 x 64 bin boxes for each would cost more than binning its
+    // primitives: the bin arrays are sized to the node.
+    let bins = bins.clamp(2, MAX_BINS).min(prims.len().max(2));
+    let args = (prims, node_bounds, centroid_bounds, bins, config, may_stop);
+    match bins {
+        0..=4 => split_with::<4>(args),
+        5..=8 => split_with::<8>(args),
+        9..=16 => split_with::<16>(args),
+        17..=32 => split_with::<32>(args),
+        _ => split_with::<MAX_BINS>(args),
+    }
+}
+
+type SplitArgs<'a> = (&'a mut [BuildPrim], &'a Aabb, &'a Aabb, usize, &'a BuildConfig, bool);
+
+fn split_with<const B: usize>(
+    (prims, node_bounds, centroid_bounds, bins, config, may_stop): SplitArgs<'_>,
+) -> SplitOutcome {
     let extent = centroid_bounds.extent();
+    let origin = centroid_bounds.min;
+    let last = Vec3A::splat((bins - 1) as f32);
     // Scale so that the largest centroid lands just inside the last bin; axes with no extent
     // get scale 0 and put everything in bin 0, where no plane can split them.
     let scale = Vec3A::select(
@@ -26,12 +46,9 @@ pub(super) fn split(
         Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent,
         Vec3A::ZERO,
     );
-    let origin = centroid_bounds.min;
-    let last = Vec3A::splat((bins - 1) as f32);
     let bin_of = |c: Vec3A| ((c - origin) * scale).min(last).max(Vec3A::ZERO);
-
-    let mut bin_bounds = [[Aabb::EMPTY; MAX_BINS]; 3];
-    let mut bin_count = [[0u32; MAX_BINS]; 3];
+    let mut bin_bounds = [[Aabb::EMPTY; B]; 3];
+    let mut bin_count = [[0u32; B]; 3];
     for p in prims.iter() {
         let b = bin_of(p.centroid);
         for axis in 0..3 {
@@ -48,7 +65,7 @@ pub(super) fn split(
         if scale[axis] == 0.0 {
             continue;
         }
-        let mut right_cost = [0.0f32; MAX_BINS];
+        let mut right_cost = [0.0f32; B];
         let mut acc = Aabb::EMPTY;
         let mut n = 0u32;
         for i in (1..bins).rev() {

@@ -1,0 +1,142 @@
+//! `AccelCullingPlugin` against Bevy's own `check_visibility_cpu_culling`: the same random
+//! scenes and camera paths run in two apps, one with each, and the visible sets must agree.
+
+use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::camera::visibility::{NoFrustumCulling, RenderLayers, VisibilityClass, VisibilityPlugin, VisibleEntities};
+use bevy::math::primitives::ViewFrustum;
+use bevy::prelude::*;
+use bevy_accel::culling::CullingStats;
+use bevy_accel::prelude::*;
+use bevy_accel::AccelCullingPlugin;
+use std::any::TypeId;
+
+/// The visibility class the test entities belong to (stands for `Mesh3d`).
+#[derive(Component, Default)]
+struct Drawable;
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * ((self.next() >> 8) as f32 / (1 << 24) as f32)
+    }
+    fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
+    }
+}
+
+fn app(ours: bool) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, VisibilityPlugin, AccelPlugin::default()));
+    if ours {
+        app.add_plugins(AccelCullingPlugin);
+    }
+    app.finish();
+    app
+}
+
+fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
+    let view = Mat4::look_at_rh(eye, target, Vec3::Y);
+    let proj = Mat4::perspective_infinite_reverse_rh(fov, 1.5, 0.1);
+    Frustum(ViewFrustum::from_clip_from_world(&(proj * view)))
+}
+
+/// Builds the same scene in an app: entities of varied size, some hidden through a parent,
+/// some on other render layers, some without frustum culling, some static.
+fn populate(app: &mut App, seed: u64) -> Vec<Entity> {
+    let mut rng = Rng(seed);
+    let world = app.world_mut();
+    let mut class = VisibilityClass::default();
+    class.push(TypeId::of::<Drawable>());
+    let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
+    let moving_parent = world.spawn((Transform::from_xyz(5.0, 0.0, 0.0), Visibility::Visible)).id();
+    let mut out = Vec::new();
+    for i in 0..3000 {
+        let t = Transform::from_translation(rng.vec3(200.0))
+            .with_rotation(Quat::from_rotation_y(rng.range(0.0, 6.0)))
+            .with_scale(Vec3::new(rng.range(0.1, 4.0), rng.range(0.1, 4.0), rng.range(0.1, 4.0)));
+        let half = Vec3::new(rng.range(0.1, 3.0), rng.range(0.1, 3.0), rng.range(0.1, 3.0));
+        let mut e = world.spawn((t, Visibility::Inherited, class.clone(), Drawable, Aabb::from_min_max(-half, half)));
+        match i % 11 {
+            0 => {
+                e.insert(ChildOf(hidden_parent));
+            }
+            1 => {
+                e.insert(ChildOf(moving_parent));
+            }
+            2 => {
+                e.insert(RenderLayers::layer(1));
+            }
+            3 => {
+                e.insert(AccelStatic);
+            }
+            4 => {
+                e.remove::<Aabb>();
+                e.insert(NoFrustumCulling);
+            }
+            _ => {}
+        }
+        out.push(e.id());
+    }
+    out
+}
+
+fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<Entity>>, Vec<bool>) {
+    let world = app.world_mut();
+    let mut views = world.query::<(&Camera, &VisibleEntities)>();
+    let lists = views
+        .iter(world)
+        .map(|(_, v)| v.get(TypeId::of::<Drawable>()).to_vec())
+        .collect();
+    let flags = entities.iter().map(|&e| world.get::<ViewVisibility>(e).unwrap().get()).collect();
+    (lists, flags)
+}
+
+#[test]
+fn visible_sets_equal_bevys_over_camera_paths() {
+    let mut bevy_app = app(false);
+    let mut accel_app = app(true);
+    let a = populate(&mut bevy_app, 3);
+    let b = populate(&mut accel_app, 3);
+    assert_eq!(a, b, "both worlds must allocate the same entities");
+    let mut rng = Rng(11);
+    let cams: Vec<(Vec3, Vec3, f32)> = (0..2).map(|_| (rng.vec3(150.0), rng.vec3(50.0), rng.range(0.4, 1.4))).collect();
+    for app in [&mut bevy_app, &mut accel_app] {
+        for (i, &(eye, target, fov)) in cams.iter().enumerate() {
+            let mut e = app.world_mut().spawn((Camera::default(), frustum(eye, target, fov), Transform::from_translation(eye)));
+            if i == 1 {
+                e.insert(RenderLayers::from_layers(&[0, 1]));
+            }
+        }
+    }
+    let mut rng_path = Rng(5);
+    for frame in 0..25 {
+        // Move the cameras along a path and the moving parent; identical in both apps.
+        let step: Vec<(Vec3, Vec3, f32)> =
+            cams.iter().map(|&(e, t, f)| (e + rng_path.vec3(40.0), t + rng_path.vec3(20.0), f)).collect();
+        let shift = rng_path.vec3(3.0);
+        for app in [&mut bevy_app, &mut accel_app] {
+            let world = app.world_mut();
+            let mut q = world.query_filtered::<&mut Frustum, With<Camera>>();
+            for (f, &(eye, target, fov)) in q.iter_mut(world).zip(&step) {
+                *f = frustum(eye, target, fov);
+            }
+            let mut parents = world.query_filtered::<&mut Transform, (Without<Aabb>, Without<Camera>, Without<Drawable>)>();
+            for mut t in parents.iter_mut(world) {
+                t.translation += shift;
+            }
+            app.update();
+        }
+        let (bevy_lists, bevy_flags) = visible_sets(&mut bevy_app, &a);
+        let (accel_lists, accel_flags) = visible_sets(&mut accel_app, &b);
+        assert_eq!(bevy_lists, accel_lists, "frame {frame}: VisibleEntities differ");
+        assert_eq!(bevy_flags, accel_flags, "frame {frame}: ViewVisibility differs");
+        assert!(bevy_lists.iter().any(|l| !l.is_empty()), "the camera path must see something");
+    }
+    let stats = accel_app.world().resource::<CullingStats>();
+    assert!(stats.views == 2 && stats.visible > 0);
+}
