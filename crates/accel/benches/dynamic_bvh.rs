@@ -5,8 +5,8 @@
 use accel::dynamic::{DynamicBvh, LeafHandle};
 use accel::{Aabb, BuildConfig, Bvh};
 use criterion::{BatchSize, Criterion};
-use std::hint::black_box;
 use glam::Vec3A;
+use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 const N: usize = 100_000;
@@ -14,11 +14,18 @@ const N: usize = 100_000;
 struct Rng(u64);
 impl Rng {
     fn f(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 40) as f32) / (1u64 << 24) as f32
     }
     fn v(&mut self, lo: f32, hi: f32) -> Vec3A {
-        Vec3A::new(lo + (hi - lo) * self.f(), lo + (hi - lo) * self.f(), lo + (hi - lo) * self.f())
+        Vec3A::new(
+            lo + (hi - lo) * self.f(),
+            lo + (hi - lo) * self.f(),
+            lo + (hi - lo) * self.f(),
+        )
     }
     fn below(&mut self, n: usize) -> usize {
         (self.f() * n as f32) as usize % n
@@ -27,12 +34,18 @@ impl Rng {
 
 fn scene(n: usize, seed: u64) -> Vec<Aabb> {
     let mut r = Rng(seed);
-    (0..n).map(|_| Aabb::from_center_half_extents(r.v(-200.0, 200.0), r.v(0.1, 1.0))).collect()
+    (0..n)
+        .map(|_| Aabb::from_center_half_extents(r.v(-200.0, 200.0), r.v(0.1, 1.0)))
+        .collect()
 }
 
 fn tree(boxes: &[Aabb]) -> (DynamicBvh, Vec<LeafHandle>) {
     let mut t = DynamicBvh::new();
-    let hs = boxes.iter().enumerate().map(|(i, b)| t.insert(i as u32, *b).unwrap()).collect();
+    let hs = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| t.insert(i as u32, *b).unwrap())
+        .collect();
     t.rebuild();
     (t, hs)
 }
@@ -46,7 +59,8 @@ fn quality_run() {
     let mut boxes_now = boxes.clone();
     let (mut t, hs) = tree(&boxes);
     let mut r = Rng(2);
-    let (mut opt_total, mut opt_max, mut maintain_total) = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
+    let (mut opt_total, mut opt_max, mut maintain_total) =
+        (Duration::ZERO, Duration::ZERO, Duration::ZERO);
     let mut rebuilds = 0;
     for _ in 0..1000 {
         for _ in 0..N / 10 {
@@ -63,9 +77,16 @@ fn quality_run() {
         rebuilds += usize::from(rep.rebuilt);
     }
     let fresh_fat = t.measure_fresh_build_cost();
-    let fresh_tight = Bvh::build(&boxes_now, &BuildConfig { max_leaf_size: 1, sah_termination: false, ..BuildConfig::default() })
-        .stats(&t.config().sah)
-        .sah_cost;
+    let fresh_tight = Bvh::build(
+        &boxes_now,
+        &BuildConfig {
+            max_leaf_size: 1,
+            sah_termination: false,
+            ..BuildConfig::default()
+        },
+    )
+    .stats(&t.config().sah)
+    .sah_cost;
     let cost = t.stats(&t.config().sah).sah_cost;
     println!(
         "quality run (100k, 1000 frames, 10% random walk of up to 1 unit/axis per frame): SAH {cost:.2}, \
@@ -97,7 +118,9 @@ fn benches(c: &mut Criterion) {
                 black_box(t.refit())
             })
         });
-        g.bench_function("empty_frame_maintain", |b| b.iter(|| black_box(t.maintain())));
+        g.bench_function("empty_frame_maintain", |b| {
+            b.iter(|| black_box(t.maintain()))
+        });
     }
     {
         let (t, _) = tree(&boxes);
@@ -117,7 +140,11 @@ fn benches(c: &mut Criterion) {
             b.iter_batched_ref(
                 || {
                     let mut t = t.clone();
-                    let hs: Vec<_> = extra.iter().enumerate().map(|(i, bx)| t.insert(N as u32 + i as u32, *bx).unwrap()).collect();
+                    let hs: Vec<_> = extra
+                        .iter()
+                        .enumerate()
+                        .map(|(i, bx)| t.insert(N as u32 + i as u32, *bx).unwrap())
+                        .collect();
                     (t, hs)
                 },
                 |(t, hs)| {
@@ -139,7 +166,12 @@ fn benches(c: &mut Criterion) {
         let extra = scene(1000, 9);
         g.bench_function("obvhs_insert_1000_at_100k", |b| {
             b.iter_batched_ref(
-                || (ob.clone(), obvhs::faststack::HeapStack::new_with_capacity(1000)),
+                || {
+                    (
+                        ob.clone(),
+                        obvhs::faststack::HeapStack::new_with_capacity(1000),
+                    )
+                },
                 |(o, st)| {
                     for (i, bx) in extra.iter().enumerate() {
                         black_box(o.insert_primitive(to_obvhs(bx), (N + i) as u32, st));
@@ -193,4 +225,3 @@ fn main() {
     benches(&mut c);
     c.final_summary();
 }
-

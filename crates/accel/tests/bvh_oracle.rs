@@ -4,7 +4,9 @@
 mod scenes;
 
 use accel::bvh::stats::tree_stats;
-use accel::{Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
+use accel::{
+    Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy,
+};
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, random_frustum, rays, scene};
 
@@ -19,27 +21,43 @@ const STRATEGIES: [SplitStrategy; 5] = [
 fn configs() -> Vec<BuildConfig> {
     let mut out = Vec::new();
     for split in STRATEGIES {
-        for (max_leaf_size, sah_termination, max_depth) in [(1, false, 64), (4, true, 64), (8, false, 64), (2, false, 3)] {
-            out.push(BuildConfig { split, max_leaf_size, sah_termination, max_depth, sah: SahCosts::default() });
+        for (max_leaf_size, sah_termination, max_depth) in
+            [(1, false, 64), (4, true, 64), (8, false, 64), (2, false, 3)]
+        {
+            out.push(BuildConfig {
+                split,
+                max_leaf_size,
+                sah_termination,
+                max_depth,
+                sah: SahCosts::default(),
+            });
         }
     }
     out
 }
 
 fn closest_brute(boxes: &[Aabb], ray: &accel::Ray) -> Option<f32> {
-    boxes.iter().filter_map(|b| ray.intersect_aabb(b)).min_by(f32::total_cmp)
+    boxes
+        .iter()
+        .filter_map(|b| ray.intersect_aabb(b))
+        .min_by(f32::total_cmp)
 }
 
 fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     let bvh = Bvh::build(boxes, cfg);
-    bvh.validate(boxes).unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
+    bvh.validate(boxes)
+        .unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
     let extent = 120.0;
     // Rays: closest, any, all.
     let mut all = Vec::new();
     for ray in rays(n_queries, seed, extent) {
         let want = closest_brute(boxes, &ray);
         let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
-        assert_eq!(got.map(|h| h.t), want, "closest hit differs, {cfg:?} ray {ray:?}");
+        assert_eq!(
+            got.map(|h| h.t),
+            want,
+            "closest hit differs, {cfg:?} ray {ray:?}"
+        );
         if let Some(h) = got {
             assert_eq!(ray.intersect_aabb(&boxes[h.primitive as usize]), Some(h.t));
         }
@@ -50,7 +68,12 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         let mut want_all: Vec<RayHit> = boxes
             .iter()
             .enumerate()
-            .filter_map(|(i, b)| ray.intersect_aabb(b).map(|t| RayHit { primitive: i as u32, t }))
+            .filter_map(|(i, b)| {
+                ray.intersect_aabb(b).map(|t| RayHit {
+                    primitive: i as u32,
+                    t,
+                })
+            })
             .collect();
         accel::query::binary::sort_hits(&mut want_all);
         assert_eq!(all, want_all);
@@ -67,7 +90,9 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].intersects_aabb(&q)).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].intersects_aabb(&q))
+            .collect();
         assert_eq!(got, want, "aabb overlap");
 
         let s = Sphere::new(rng.vec3(-extent, extent), rng.range(0.0, 40.0));
@@ -79,7 +104,9 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| s.intersects_aabb(&boxes[i as usize])).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| s.intersects_aabb(&boxes[i as usize]))
+            .collect();
         assert_eq!(got, want, "sphere overlap");
 
         let p = rng.vec3(-extent, extent);
@@ -91,14 +118,17 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].contains_point(p)).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].contains_point(p))
+            .collect();
         assert_eq!(got, want, "point containment");
 
         // k nearest by box distance.
         let k = 1 + rng.below(8) as usize;
         let got = bvh.nearest_k(p, k, |i| boxes[i as usize].distance_squared_to_point(p));
-        let mut want: Vec<(u32, f32)> =
-            (0..boxes.len() as u32).map(|i| (i, boxes[i as usize].distance_squared_to_point(p))).collect();
+        let mut want: Vec<(u32, f32)> = (0..boxes.len() as u32)
+            .map(|i| (i, boxes[i as usize].distance_squared_to_point(p)))
+            .collect();
         want.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         want.truncate(k);
         assert_eq!(got, want, "k nearest");
@@ -109,14 +139,20 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         bvh.for_each_in_frustum(&f, |i, c| {
             let exact = f.classify_aabb(&boxes[i as usize]);
             if c == Containment::Inside {
-                assert_eq!(exact, Containment::Inside, "subtree accepted but primitive not inside");
+                assert_eq!(
+                    exact,
+                    Containment::Inside,
+                    "subtree accepted but primitive not inside"
+                );
             }
             if exact != Containment::Outside {
                 got.push(i);
             }
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| f.intersects_aabb(&boxes[i as usize])).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| f.intersects_aabb(&boxes[i as usize]))
+            .collect();
         assert_eq!(got, want, "frustum");
     }
 }
@@ -125,7 +161,11 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
 fn every_strategy_matches_brute_force_on_every_scene_kind() {
     let mut seed = 1;
     for cfg in configs() {
-        for kind in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate] {
+        for kind in [
+            SceneKind::Uniform,
+            SceneKind::Clustered,
+            SceneKind::Degenerate,
+        ] {
             for n in [1, 2, 3, 17, 300] {
                 seed += 1;
                 let boxes = scene(kind, n, seed);
@@ -137,7 +177,14 @@ fn every_strategy_matches_brute_force_on_every_scene_kind() {
 
 #[test]
 fn large_scenes_match_brute_force() {
-    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate].into_iter().enumerate() {
+    for (i, kind) in [
+        SceneKind::Uniform,
+        SceneKind::Clustered,
+        SceneKind::Degenerate,
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let boxes = scene(kind, 20_000, 77 + i as u64);
         check_scene(&boxes, &BuildConfig::default(), 99, 60);
     }
@@ -166,7 +213,10 @@ fn a_million_identical_boxes_terminate_with_small_leaves() {
         let bvh = Bvh::build(&boxes, &cfg);
         bvh.validate(&boxes).unwrap();
         let s = tree_stats(&bvh, &cfg.sah);
-        assert!(s.max_leaf_size <= cfg.max_leaf_size as usize, "{split:?}: {s:?}");
+        assert!(
+            s.max_leaf_size <= cfg.max_leaf_size as usize,
+            "{split:?}: {s:?}"
+        );
         assert!(s.max_depth <= 24, "{split:?}: {s:?}");
     }
 }
@@ -190,16 +240,28 @@ fn invalid_boxes_are_left_out_and_infinite_ones_kept() {
 
 #[test]
 fn binned_sah_is_within_three_percent_of_sweep_sah() {
-    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered].into_iter().enumerate() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered]
+        .into_iter()
+        .enumerate()
+    {
         let boxes = scene(kind, 50_000, 11 + i as u64);
         let costs = SahCosts::default();
-        let sweep = tree_stats(&Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::SweepSah)), &costs);
+        let sweep = tree_stats(
+            &Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::SweepSah)),
+            &costs,
+        );
         let binned = tree_stats(
-            &Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 })),
+            &Bvh::build(
+                &boxes,
+                &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 }),
+            ),
             &costs,
         );
         let ratio = binned.sah_cost / sweep.sah_cost;
-        println!("{kind:?}: sweep {:.2} binned {:.2} ratio {ratio:.4}", sweep.sah_cost, binned.sah_cost);
+        println!(
+            "{kind:?}: sweep {:.2} binned {:.2} ratio {ratio:.4}",
+            sweep.sah_cost, binned.sah_cost
+        );
         assert!(ratio <= 1.03, "{kind:?}: binned/sweep = {ratio}");
     }
 }

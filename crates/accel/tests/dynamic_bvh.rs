@@ -15,7 +15,9 @@
 
 mod scenes;
 
-use accel::dynamic::{DynamicBvh, DynamicBvhConfig, DynamicBvhError, LeafHandle, StaticDynamicPair};
+use accel::dynamic::{
+    DynamicBvh, DynamicBvhConfig, DynamicBvhError, LeafHandle, StaticDynamicPair,
+};
 use accel::{Aabb, BuildConfig, Bvh, Containment, SpatialQuery};
 use core::ops::ControlFlow;
 use glam::Vec3A;
@@ -27,17 +29,27 @@ fn random_box(rng: &mut Rng, extent: f32) -> Aabb {
 }
 
 /// Compares every query with brute force over `model` (id -> tight box).
-fn check_queries<T: SpatialQuery>(tree: &T, model: &HashMap<u32, Aabb>, rng: &mut Rng, extent: f32, n: usize) {
+fn check_queries<T: SpatialQuery>(
+    tree: &T,
+    model: &HashMap<u32, Aabb>,
+    rng: &mut Rng,
+    extent: f32,
+    n: usize,
+) {
     let boxes: Vec<(u32, Aabb)> = model.iter().map(|(&i, &b)| (i, b)).collect();
     for ray in rays(n, u64::from(rng.next_u32()), extent * 1.2) {
-        let want = boxes.iter().filter_map(|(_, b)| ray.intersect_aabb(b)).min_by(f32::total_cmp);
+        let want = boxes
+            .iter()
+            .filter_map(|(_, b)| ray.intersect_aabb(b))
+            .min_by(f32::total_cmp);
         let got = tree.cast_ray(&ray, |i, r| r.intersect_aabb(&model[&i]));
         assert_eq!(got.map(|h| h.t), want, "closest hit, ray {ray:?}");
         let any = tree.cast_ray_any(&ray, |i, r| r.hits_aabb(&model[&i]));
         assert_eq!(any.is_some(), want.is_some(), "any hit");
     }
     for _ in 0..n {
-        let q = Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.0, extent * 0.2));
+        let q =
+            Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.0, extent * 0.2));
         let mut got = Vec::new();
         tree.for_each_overlapping_aabb(&q, |i| {
             if model[&i].intersects_aabb(&q) {
@@ -46,7 +58,11 @@ fn check_queries<T: SpatialQuery>(tree: &T, model: &HashMap<u32, Aabb>, rng: &mu
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let mut want: Vec<u32> = boxes.iter().filter(|(_, b)| b.intersects_aabb(&q)).map(|&(i, _)| i).collect();
+        let mut want: Vec<u32> = boxes
+            .iter()
+            .filter(|(_, b)| b.intersects_aabb(&q))
+            .map(|&(i, _)| i)
+            .collect();
         want.sort_unstable();
         assert_eq!(got, want, "box overlap");
 
@@ -55,14 +71,22 @@ fn check_queries<T: SpatialQuery>(tree: &T, model: &HashMap<u32, Aabb>, rng: &mu
         tree.for_each_in_frustum(&f, |i, c| {
             let exact = f.classify_aabb(&model[&i]);
             if c == Containment::Inside {
-                assert_eq!(exact, Containment::Inside, "subtree accepted but primitive not inside");
+                assert_eq!(
+                    exact,
+                    Containment::Inside,
+                    "subtree accepted but primitive not inside"
+                );
             }
             if exact != Containment::Outside {
                 got.push(i);
             }
         });
         got.sort_unstable();
-        let mut want: Vec<u32> = boxes.iter().filter(|(_, b)| f.intersects_aabb(b)).map(|&(i, _)| i).collect();
+        let mut want: Vec<u32> = boxes
+            .iter()
+            .filter(|(_, b)| f.intersects_aabb(b))
+            .map(|&(i, _)| i)
+            .collect();
         want.sort_unstable();
         assert_eq!(got, want, "frustum");
     }
@@ -74,7 +98,11 @@ fn check_ids(tree: &DynamicBvh, model: &HashMap<u32, Aabb>, handles: &HashMap<u3
     let mut seen = HashMap::with_capacity(model.len());
     for (h, id, tight) in tree.leaves() {
         assert!(seen.insert(id, h).is_none(), "id {id} duplicated");
-        assert_eq!(model.get(&id), Some(&tight), "id {id} not in the model, or its box differs");
+        assert_eq!(
+            model.get(&id),
+            Some(&tight),
+            "id {id} not in the model, or its box differs"
+        );
         assert_eq!(handles[&id], h, "id {id} has another handle");
     }
     assert_eq!(seen.len(), model.len(), "an id was lost");
@@ -138,7 +166,11 @@ fn soak(s: Soak) {
             model.insert(id, b);
         }
         // Spawns and despawns, drifting the population up and down within the cap.
-        let target = if (frame / 1000) % 2 == 0 { s.max_handles } else { s.max_handles / 2 };
+        let target = if (frame / 1000) % 2 == 0 {
+            s.max_handles
+        } else {
+            s.max_handles / 2
+        };
         let (spawns, despawns) = if order.len() < target {
             (rng.below(40) as usize + 5, rng.below(20) as usize)
         } else {
@@ -162,7 +194,10 @@ fn soak(s: Soak) {
             && !tree.contains(h)
         {
             assert_eq!(tree.remove(h), Err(DynamicBvhError::StaleHandle));
-            assert_eq!(tree.update(h, Aabb::from_point(Vec3A::ZERO)), Err(DynamicBvhError::StaleHandle));
+            assert_eq!(
+                tree.update(h, Aabb::from_point(Vec3A::ZERO)),
+                Err(DynamicBvhError::StaleHandle)
+            );
         }
         if removed.len() > 64 {
             removed.drain(..32);
@@ -171,7 +206,8 @@ fn soak(s: Soak) {
         rebuilds_seen = tree.rebuild_count();
         max_seen = max_seen.max(order.len());
         if frame % s.check_every == 0 || frame + 1 == s.frames {
-            tree.validate().unwrap_or_else(|e| panic!("frame {frame}: {e}"));
+            tree.validate()
+                .unwrap_or_else(|e| panic!("frame {frame}: {e}"));
             check_ids(&tree, &model, &handles);
             check_queries(&tree, &model, &mut rng, s.extent, 4);
         }
@@ -181,8 +217,14 @@ fn soak(s: Soak) {
         tree.validate().unwrap();
         check_ids(&tree, &model, &handles);
     }
-    println!("soak: max population {max_seen}, rebuilds {rebuilds_seen}, final quality {:?}", tree.quality());
-    assert!(max_seen >= s.max_handles * 9 / 10, "population only reached {max_seen}");
+    println!(
+        "soak: max population {max_seen}, rebuilds {rebuilds_seen}, final quality {:?}",
+        tree.quality()
+    );
+    assert!(
+        max_seen >= s.max_handles * 9 / 10,
+        "population only reached {max_seen}"
+    );
 }
 
 #[test]
@@ -203,7 +245,10 @@ fn soak_small_population_every_frame() {
 
 #[test]
 fn soak_growing_to_100k_handles() {
-    let every = std::env::var("ACCEL_SOAK_EVERY").ok().and_then(|v| v.parse().ok()).unwrap_or(500);
+    let every = std::env::var("ACCEL_SOAK_EVERY")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(500);
     soak(Soak {
         frames: 10_000,
         max_handles: 100_000,
@@ -258,7 +303,10 @@ fn stale_and_foreign_handles_are_refused() {
     assert_eq!(t.remove(a), Err(DynamicBvhError::StaleHandle));
     assert_eq!(t.id(a), None);
     assert_eq!(t.id(b), Some(2));
-    assert_eq!(t.remove(LeafHandle::from_bits(u64::MAX)), Err(DynamicBvhError::StaleHandle));
+    assert_eq!(
+        t.remove(LeafHandle::from_bits(u64::MAX)),
+        Err(DynamicBvhError::StaleHandle)
+    );
     assert_eq!(LeafHandle::from_bits(b.to_bits()), b);
     t.validate().unwrap();
 }
@@ -268,7 +316,9 @@ fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
     let mut t = DynamicBvh::new();
     let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
     let h = t.insert(0, b).unwrap();
-    let _other = t.insert(1, Aabb::new(Vec3A::splat(5.0), Vec3A::splat(6.0))).unwrap();
+    let _other = t
+        .insert(1, Aabb::new(Vec3A::splat(5.0), Vec3A::splat(6.0)))
+        .unwrap();
     let nudged = Aabb::new(b.min + 0.05, b.max + 0.05);
     assert_eq!(t.update(h, nudged), Ok(false));
     assert!(!t.needs_refit());
@@ -276,7 +326,10 @@ fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
     let moved = Aabb::new(b.min + 3.0, b.max + 3.0);
     assert_eq!(t.update(h, moved), Ok(true));
     assert!(t.needs_refit());
-    assert_eq!(t.validate(), Err(accel::dynamic::DynamicValidationError::PendingUpdates));
+    assert_eq!(
+        t.validate(),
+        Err(accel::dynamic::DynamicValidationError::PendingUpdates)
+    );
     assert!(t.refit() > 0);
     t.validate().unwrap();
     assert!(t.fat_bounds(h).unwrap().contains_aabb(&moved));
@@ -291,7 +344,9 @@ fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
 fn removing_everything_leaves_an_empty_valid_tree() {
     let mut rng = Rng::new(9);
     let mut t = DynamicBvh::new();
-    let hs: Vec<_> = (0..500).map(|i| t.insert(i, random_box(&mut rng, 50.0)).unwrap()).collect();
+    let hs: Vec<_> = (0..500)
+        .map(|i| t.insert(i, random_box(&mut rng, 50.0)).unwrap())
+        .collect();
     t.validate().unwrap();
     for (i, h) in hs.into_iter().enumerate().rev() {
         assert_eq!(t.remove(h), Ok(i as u32));
@@ -331,8 +386,15 @@ fn rebuild_keeps_handles_and_reaches_fresh_build_quality() {
     let q = t.quality();
     let fresh = t.measure_fresh_build_cost();
     let exact = t.stats(&t.config().sah).sah_cost;
-    assert!((q.sah_cost - exact).abs() <= 1e-3 * exact, "incremental {} vs walked {exact}", q.sah_cost);
-    assert!((exact - fresh).abs() <= 1e-3 * fresh, "installed {exact} vs fresh {fresh}");
+    assert!(
+        (q.sah_cost - exact).abs() <= 1e-3 * exact,
+        "incremental {} vs walked {exact}",
+        q.sah_cost
+    );
+    assert!(
+        (exact - fresh).abs() <= 1e-3 * fresh,
+        "installed {exact} vs fresh {fresh}"
+    );
     assert!((q.ratio - 1.0).abs() < 1e-3, "{q:?}");
     check_queries(&t, &model, &mut rng, 100.0, 20);
 }
@@ -389,7 +451,10 @@ fn optimizer_repairs_a_tree_that_refit_alone_lets_rot() {
     let mut hs = Vec::new();
     for i in 0..10_000u32 {
         let b = random_box(&mut rng, 100.0);
-        hs.push((optimised.insert(i, b).unwrap(), refit_only.insert(i, b).unwrap()));
+        hs.push((
+            optimised.insert(i, b).unwrap(),
+            refit_only.insert(i, b).unwrap(),
+        ));
     }
     optimised.rebuild();
     refit_only.rebuild();
@@ -420,8 +485,15 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
     // Disjoint id spaces, as the pair's docs ask: static ids are input indices 0..3,000,
     // dynamic ids start at 10,000.
     let statics: Vec<Aabb> = (0..3_000).map(|_| random_box(&mut rng, 80.0)).collect();
-    let mut model: HashMap<u32, Aabb> = statics.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
-    let mut pair = StaticDynamicPair::new(Bvh::build(&statics, &BuildConfig::default()), DynamicBvh::new());
+    let mut model: HashMap<u32, Aabb> = statics
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (i as u32, *b))
+        .collect();
+    let mut pair = StaticDynamicPair::new(
+        Bvh::build(&statics, &BuildConfig::default()),
+        DynamicBvh::new(),
+    );
     let mut hs = Vec::new();
     for i in 0..2_000u32 {
         let b = random_box(&mut rng, 80.0);
@@ -445,9 +517,17 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
     // Either half alone still answers.
     let (s, d) = pair.into_parts();
     let only_static = StaticDynamicPair::new(s, DynamicBvh::new());
-    let static_model: HashMap<u32, Aabb> = model.iter().filter(|(i, _)| **i < 10_000).map(|(&i, &b)| (i, b)).collect();
+    let static_model: HashMap<u32, Aabb> = model
+        .iter()
+        .filter(|(i, _)| **i < 10_000)
+        .map(|(&i, &b)| (i, b))
+        .collect();
     check_queries(&only_static, &static_model, &mut rng, 80.0, 10);
     let only_dynamic = StaticDynamicPair::new(Bvh::default(), d);
-    let dyn_model: HashMap<u32, Aabb> = model.iter().filter(|(i, _)| **i >= 10_000).map(|(&i, &b)| (i, b)).collect();
+    let dyn_model: HashMap<u32, Aabb> = model
+        .iter()
+        .filter(|(i, _)| **i >= 10_000)
+        .map(|(&i, &b)| (i, b))
+        .collect();
     check_queries(&only_dynamic, &dyn_model, &mut rng, 80.0, 10);
 }

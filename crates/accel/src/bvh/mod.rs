@@ -22,8 +22,8 @@ pub use config::{BuildConfig, SahCosts, SplitStrategy};
 pub use node::BvhNode;
 pub use split_binned::MAX_BINS;
 
-use crate::query::BoundingTree;
 use crate::Aabb;
+use crate::query::BoundingTree;
 
 /// A bounding volume hierarchy over primitive boxes, built once, refittable.
 ///

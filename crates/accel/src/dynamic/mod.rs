@@ -333,7 +333,10 @@ impl DynamicBvh {
         if self.arena.free_count() < 2 && self.arena.nodes.len() + 2 > node::MAX_NODES {
             return Err(DynamicBvhError::CapacityExceeded);
         }
-        let leaf = self.arena.alloc().ok_or(DynamicBvhError::CapacityExceeded)?;
+        let leaf = self
+            .arena
+            .alloc()
+            .ok_or(DynamicBvhError::CapacityExceeded)?;
         if self.tight.len() < self.arena.nodes.len() {
             self.tight.resize(self.arena.nodes.len(), Aabb::EMPTY);
         }
@@ -417,16 +420,21 @@ impl DynamicBvh {
 
     /// Every live leaf as `(handle, id, tight bounds)`, in arena order.
     pub fn leaves(&self) -> impl Iterator<Item = (LeafHandle, u32, Aabb)> + '_ {
-        self.arena.nodes.iter().enumerate().filter(|(_, n)| n.is_leaf()).map(|(i, n)| {
-            (
-                LeafHandle {
-                    index: i as u32,
-                    generation: n.generation,
-                },
-                n.id,
-                self.tight[i],
-            )
-        })
+        self.arena
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.is_leaf())
+            .map(|(i, n)| {
+                (
+                    LeafHandle {
+                        index: i as u32,
+                        generation: n.generation,
+                    },
+                    n.id,
+                    self.tight[i],
+                )
+            })
     }
 
     /// Shape and SAH statistics, walking the whole tree (O(n)); see [`TreeStats`].
@@ -438,7 +446,8 @@ impl DynamicBvh {
     pub fn memory_bytes(&self) -> usize {
         self.arena.nodes.capacity() * core::mem::size_of::<node::Node>()
             + self.tight.capacity() * core::mem::size_of::<Aabb>()
-            + (self.dirty.capacity() + self.refit_queue.capacity() + self.refit_sorted.capacity()) * 4
+            + (self.dirty.capacity() + self.refit_queue.capacity() + self.refit_sorted.capacity())
+                * 4
     }
 
     #[inline]
@@ -475,7 +484,10 @@ impl DynamicBvh {
     pub(crate) fn alloc_internal(&mut self) -> u32 {
         // Callers reserve capacity up front (a leaf's insertion checks for two slots and
         // every other caller frees a node before allocating one), so this cannot fail.
-        let i = self.arena.alloc().expect("dynamic BVH node capacity checked by the caller");
+        let i = self
+            .arena
+            .alloc()
+            .expect("dynamic BVH node capacity checked by the caller");
         self.arena.nodes[i as usize].height = 1;
         if self.tight.len() < self.arena.nodes.len() {
             self.tight.resize(self.arena.nodes.len(), Aabb::EMPTY);

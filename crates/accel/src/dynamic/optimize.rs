@@ -51,12 +51,16 @@ impl DynamicBvh {
     /// inefficiency, stopping early when `budget` is spent. Returns at once when the tree has
     /// not changed since the last call.
     ///
-    /// The inefficiency is Bittner's combined measure: `area(n) * area(n) / min(child areas)
-    /// * area(n) / mean(child areas)`. Large nodes whose children are much smaller, or
+    /// The inefficiency is Bittner's combined measure, the product of `area(n)`,
+    /// `area(n) / min(child areas)` and `area(n) / mean(child areas)`. Large nodes whose children are much smaller, or
     /// unbalanced, score high: those are the nodes a moved leaf stretched.
     pub fn optimize(&mut self, budget: Duration, max_reinsertions: usize) -> OptimizeReport {
         let mut report = OptimizeReport::default();
-        if self.optimizer.changes == 0 || self.root == NULL || max_reinsertions == 0 || budget.is_zero() {
+        if self.optimizer.changes == 0
+            || self.root == NULL
+            || max_reinsertions == 0
+            || budget.is_zero()
+        {
             return report;
         }
         debug_assert!(self.dirty.is_empty(), "optimize() needs a refit first");

@@ -53,7 +53,10 @@ pub struct StaticDynamicPair {
 impl StaticDynamicPair {
     /// The pair of a static tree and a dynamic one.
     pub fn new(static_tree: Bvh, dynamic: DynamicBvh) -> Self {
-        Self { static_tree, dynamic }
+        Self {
+            static_tree,
+            dynamic,
+        }
     }
 
     /// The static tree (read-only: it is never refit; replace it with

@@ -115,7 +115,8 @@ impl DynamicBvh {
         let costs = self.config.sah;
         let root_area = f64::from(self.arena.nodes[self.root as usize].aabb.half_area());
         if root_area > 0.0 {
-            ((internal * f64::from(costs.traversal) + leaf * f64::from(costs.intersection)) / root_area) as f32
+            ((internal * f64::from(costs.traversal) + leaf * f64::from(costs.intersection))
+                / root_area) as f32
         } else {
             // Everything at one point: weight each node 1, as `tree_stats` does.
             let n = self.leaf_count as f32;
@@ -126,7 +127,13 @@ impl DynamicBvh {
     /// The exact SAH cost of a fresh binned-SAH build over the current fat boxes (O(n log n):
     /// for tests, benchmarks and calibration, not for every frame).
     pub fn measure_fresh_build_cost(&self) -> f32 {
-        let boxes: Vec<Aabb> = self.arena.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.aabb).collect();
+        let boxes: Vec<Aabb> = self
+            .arena
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| n.aabb)
+            .collect();
         let bvh = Bvh::build(&boxes, &rebuild_config());
         tree_stats(&bvh, &self.config.sah).sah_cost
     }
@@ -151,10 +158,18 @@ impl DynamicBvh {
             refit_nodes: self.refit(),
             ..MaintainReport::default()
         };
-        if self.quality.job.as_ref().is_some_and(|j| j.handle.is_finished()) {
+        if self
+            .quality
+            .job
+            .as_ref()
+            .is_some_and(|j| j.handle.is_finished())
+        {
             report.rebuilt = self.finish_background_rebuild();
         }
-        let (budget, max) = (self.config.optimize_budget, self.config.optimize_max_reinsertions);
+        let (budget, max) = (
+            self.config.optimize_budget,
+            self.config.optimize_max_reinsertions,
+        );
         report.optimize = self.optimize(budget, max);
         report.quality = self.quality();
         if self.quality.job.is_none() && self.wants_rebuild(&report.quality) {
@@ -177,7 +192,9 @@ impl DynamicBvh {
         }
         match self.quality.calibration {
             None => true,
-            Some(c) => n > 2 * c.leaves || 2 * n < c.leaves || q.ratio > self.config.rebuild_threshold,
+            Some(c) => {
+                n > 2 * c.leaves || 2 * n < c.leaves || q.ratio > self.config.rebuild_threshold
+            }
         }
     }
 

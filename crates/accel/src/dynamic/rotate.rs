@@ -56,7 +56,10 @@ impl DynamicBvh {
         self.arena.nodes[down as usize].parent = other;
         self.arena.nodes[up as usize].parent = a;
 
-        let (nd, nk) = (&self.arena.nodes[down as usize], &self.arena.nodes[keep as usize]);
+        let (nd, nk) = (
+            &self.arena.nodes[down as usize],
+            &self.arena.nodes[keep as usize],
+        );
         let other_box = nd.aabb.union(&nk.aabb);
         let other_height = 1 + nd.height.max(nk.height);
         self.arena.nodes[other as usize].height = other_height;

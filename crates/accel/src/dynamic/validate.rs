@@ -100,9 +100,14 @@ impl DynamicBvh {
                 expected: self.leaf_count,
             });
         }
-        let view = DenseView { tree: self, ordinal };
-        validate_tree(&view, nodes.len(), tight.len(), |p| tight.get(p as usize).copied())
-            .map_err(DynamicValidationError::Tree)?;
+        let view = DenseView {
+            tree: self,
+            ordinal,
+        };
+        validate_tree(&view, nodes.len(), tight.len(), |p| {
+            tight.get(p as usize).copied()
+        })
+        .map_err(DynamicValidationError::Tree)?;
 
         // Links, heights and flags, walking from the root.
         let mut reached = 0usize;

@@ -81,6 +81,8 @@ impl Ray {
 
     /// True when the ray's range is empty, so it can hit nothing (invalid input makes this so).
     #[inline]
+    // The negation is the point: a NaN range must count as degenerate.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn is_degenerate(&self) -> bool {
         !(self.t_min <= self.t_max)
     }

@@ -28,6 +28,8 @@ impl Ray {
 
     /// Both parameters (ascending) where the infinite line meets the sphere, ignoring the
     /// ray's range; `None` when the line misses or the input is degenerate.
+    // `!(d >= 0)` also rejects a NaN discriminant, which `d < 0` would let through.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn sphere_roots(&self, sphere: &Sphere) -> Option<(f32, f32)> {
         if self.is_degenerate() || !sphere.is_valid() {
             return None;

@@ -107,6 +107,9 @@ impl Sphere {
         } else {
             lx + ly + lz
         };
-        Self::new(m.transform_point3a(self.center), self.radius * stretch_sq.sqrt())
+        Self::new(
+            m.transform_point3a(self.center),
+            self.radius * stretch_sq.sqrt(),
+        )
     }
 }
