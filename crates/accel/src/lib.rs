@@ -9,6 +9,8 @@
 //!
 //! - [`bvh`]: the static BVH with every textbook build choice (midpoint, median, binned and
 //!   sweep SAH; leaf size, depth and cost stopping rules).
+//! - [`dynamic`]: the dynamic BVH (insert, remove and update by handle, batched refit, SAH
+//!   insertion with rotations, incremental optimisation, rebuilds) and the static/dynamic pair.
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
 //!   ray hits; box, sphere and point overlap; frustum; k nearest).
 //!
@@ -17,10 +19,12 @@
 #![warn(missing_docs)]
 
 pub mod bvh;
+pub mod dynamic;
 pub mod geometry;
 pub mod mesh;
 pub mod query;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
+pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
 pub use query::{BoundingTree, RayHit, SpatialQuery};

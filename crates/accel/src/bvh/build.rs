@@ -19,8 +19,12 @@ impl BuildPrim {
     /// Infinite boxes are valid but have no finite centre; clamping the corners to the largest
     /// finite float first keeps every centroid finite, so binning never sees NaN.
     fn new(bounds: Aabb, index: u32) -> Self {
-        let lo = bounds.min.clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
-        let hi = bounds.max.clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+        let lo = bounds
+            .min
+            .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+        let hi = bounds
+            .max
+            .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
         Self {
             bounds,
             centroid: lo * 0.5 + hi * 0.5,
@@ -163,7 +167,10 @@ pub(super) fn bounds_of(prims: &[BuildPrim]) -> (Aabb, Aabb) {
 
 /// Partitions in place so that the primitives for which `left` holds come first; returns how
 /// many did.
-pub(super) fn partition(prims: &mut [BuildPrim], mut left: impl FnMut(&BuildPrim) -> bool) -> usize {
+pub(super) fn partition(
+    prims: &mut [BuildPrim],
+    mut left: impl FnMut(&BuildPrim) -> bool,
+) -> usize {
     let mut i = 0;
     let mut j = prims.len();
     while i < j {

@@ -28,8 +28,8 @@ pub use node::BvhNode;
 pub use sphere_tree::SphereBvh;
 pub use split_binned::MAX_BINS;
 
-use crate::query::BoundingTree;
 use crate::Aabb;
+use crate::query::BoundingTree;
 
 /// A bounding volume hierarchy over primitive boxes, built once, refittable.
 ///

@@ -29,7 +29,13 @@ pub fn tree_stats<T: BoundingTree + ?Sized>(tree: &T, costs: &SahCosts) -> TreeS
     let root_area = tree.node_bounds(root).half_area();
     // A point-like or flat root has zero area; weight every node equally then rather than
     // divide by zero (the cost is still comparable between trees over the same input).
-    let weight = |area: f32| if root_area > 0.0 { area / root_area } else { 1.0 };
+    let weight = |area: f32| {
+        if root_area > 0.0 {
+            area / root_area
+        } else {
+            1.0
+        }
+    };
     let mut stack = vec![(root, 0usize)];
     let mut cost = 0.0f64;
     while let Some((node, depth)) = stack.pop() {

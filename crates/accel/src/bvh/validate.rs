@@ -46,7 +46,12 @@ impl std::error::Error for ValidationError {}
 /// Checks that every node bounds its children, every leaf bounds its primitives, and every valid
 /// primitive of `bounds` is reachable exactly once (invalid ones not at all). `bounds(id)`
 /// gives a primitive's box, or `None` for ids that should not be in the tree.
-pub fn validate_tree<T, B>(tree: &T, node_count: usize, primitive_count: usize, bounds: B) -> Result<(), ValidationError>
+pub fn validate_tree<T, B>(
+    tree: &T,
+    node_count: usize,
+    primitive_count: usize,
+    bounds: B,
+) -> Result<(), ValidationError>
 where
     T: BoundingTree + ?Sized,
     B: Fn(u32) -> Option<Aabb>,
@@ -70,7 +75,10 @@ where
                 Some(children) => {
                     for c in children {
                         if !nb.contains_aabb(&tree.node_bounds(c)) {
-                            return Err(ValidationError::ChildOutsideParent { parent: node, child: c });
+                            return Err(ValidationError::ChildOutsideParent {
+                                parent: node,
+                                child: c,
+                            });
                         }
                         stack.push(c);
                     }
@@ -89,7 +97,10 @@ where
                             return Err(ValidationError::DuplicatePrimitive(p));
                         }
                         if !nb.contains_aabb(&b) {
-                            return Err(ValidationError::PrimitiveOutsideLeaf { leaf: node, primitive: p });
+                            return Err(ValidationError::PrimitiveOutsideLeaf {
+                                leaf: node,
+                                primitive: p,
+                            });
                         }
                     }
                 }

@@ -301,7 +301,10 @@ pub struct Subtree<'a, T: ?Sized> {
 pub trait SubtreeExt: BoundingTree {
     /// The subtree below `node`.
     fn subtree(&self, node: u32) -> Subtree<'_, Self> {
-        Subtree { tree: self, root: node }
+        Subtree {
+            tree: self,
+            root: node,
+        }
     }
 }
 
@@ -370,7 +373,12 @@ macro_rules! impl_spatial_query_for_binary_tree {
             {
                 $crate::query::binary::for_each_in_frustum(self, frustum, visit)
             }
-            fn nearest_k<F>(&self, point: glam::Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>
+            fn nearest_k<F>(
+                &self,
+                point: glam::Vec3A,
+                k: usize,
+                distance_squared: F,
+            ) -> Vec<(u32, f32)>
             where
                 F: FnMut(u32) -> f32,
             {

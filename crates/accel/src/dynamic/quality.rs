@@ -1,0 +1,366 @@
+//! The quality monitor and rebuilds: knowing when incremental repair is no longer enough.
+//!
+//! The SAH cost of the tree is `(ct * sum internal areas + ci * sum leaf areas) / root area`.
+//! Every box write goes through `set_aabb`, which keeps both sums current, so the cost is O(1)
+//! to read. What a fresh build *would* cost is estimated from the last one: a binned-SAH build
+//! over `n` leaves has internal area close to a fixed multiple `rho` of its leaf area (each
+//! level of a good tree covers roughly the leaves below it, with a scene-dependent overlap),
+//! so `rho` is measured at each rebuild and the estimate is `(ct * rho + ci) * leaf area /
+//! root area`. That tracks motion, growth of leaves and of the world at no cost; the tree is
+//! rebuilt when its leaf count doubled or halved since `rho` was measured, which also keeps
+//! the estimate calibrated, and [`DynamicBvh::measure_fresh_build_cost`] gives the exact
+//! figure when a test or benchmark wants it.
+
+use super::DynamicBvh;
+use super::node::{FLAG_PLACED, NULL};
+use crate::bvh::stats::tree_stats;
+use crate::{Aabb, BuildConfig, Bvh, SplitStrategy};
+use std::thread::JoinHandle;
+
+/// The tree's SAH cost against an estimate of a fresh binned-SAH build's.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct QualityEstimate {
+    /// SAH cost of the tree as it is (see [`crate::bvh::stats::TreeStats::sah_cost`]).
+    pub sah_cost: f32,
+    /// Estimated SAH cost of a fresh binned-SAH build over the same fat boxes, or `None`
+    /// before the first rebuild calibrated the estimate.
+    pub fresh_estimate: Option<f32>,
+    /// `sah_cost / fresh_estimate` (1.0 before calibration).
+    pub ratio: f32,
+}
+
+/// What one [`DynamicBvh::maintain`] call did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MaintainReport {
+    /// Internal nodes the refit recomputed.
+    pub refit_nodes: usize,
+    /// The optimiser's work.
+    pub optimize: super::OptimizeReport,
+    /// The quality after the call.
+    pub quality: QualityEstimate,
+    /// A rebuild was done (synchronously) or a finished background one swapped in.
+    pub rebuilt: bool,
+    /// A background rebuild was started.
+    pub rebuild_started: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Calibration {
+    /// Internal area over leaf area of the last fresh build.
+    rho: f64,
+    /// Leaves at that build.
+    leaves: usize,
+}
+
+#[derive(Debug)]
+struct Job {
+    handle: JoinHandle<Bvh>,
+    /// The leaves the background build was given: (arena index, generation), in input order.
+    snapshot: Vec<(u32, u32)>,
+}
+
+/// Calibration and the background rebuild in flight.
+#[derive(Debug, Default)]
+pub(super) struct QualityState {
+    calibration: Option<Calibration>,
+    job: Option<Job>,
+    rebuilds: u64,
+}
+
+impl QualityState {
+    pub(super) fn clone_without_job(&self) -> Self {
+        Self {
+            calibration: self.calibration,
+            job: None,
+            rebuilds: self.rebuilds,
+        }
+    }
+}
+
+/// The build a rebuild runs: binned SAH to single-primitive leaves, the shape the dynamic tree
+/// keeps (so the new tree can be adopted node for node).
+pub(super) fn rebuild_config() -> BuildConfig {
+    BuildConfig {
+        split: SplitStrategy::BinnedSah { bins: 16 },
+        max_leaf_size: 1,
+        max_depth: u32::MAX,
+        sah_termination: false,
+        ..BuildConfig::default()
+    }
+}
+
+impl DynamicBvh {
+    /// The SAH cost of the tree and the ratio to an estimated fresh build; O(1).
+    pub fn quality(&self) -> QualityEstimate {
+        let sah_cost = self.sah_cost_from_sums(self.internal_area, self.leaf_area);
+        let fresh_estimate = self.quality.calibration.map(|c| {
+            let internal = c.rho * self.leaf_area;
+            self.sah_cost_from_sums(internal, self.leaf_area)
+        });
+        let ratio = match fresh_estimate {
+            Some(f) if f > 0.0 => sah_cost / f,
+            _ => 1.0,
+        };
+        QualityEstimate {
+            sah_cost,
+            fresh_estimate,
+            ratio,
+        }
+    }
+
+    fn sah_cost_from_sums(&self, internal: f64, leaf: f64) -> f32 {
+        if self.root == NULL {
+            return 0.0;
+        }
+        let costs = self.config.sah;
+        let root_area = f64::from(self.arena.nodes[self.root as usize].aabb.half_area());
+        if root_area > 0.0 {
+            ((internal * f64::from(costs.traversal) + leaf * f64::from(costs.intersection))
+                / root_area) as f32
+        } else {
+            // Everything at one point: weight each node 1, as `tree_stats` does.
+            let n = self.leaf_count as f32;
+            (n - 1.0) * costs.traversal + n * costs.intersection
+        }
+    }
+
+    /// The exact SAH cost of a fresh binned-SAH build over the current fat boxes (O(n log n):
+    /// for tests, benchmarks and calibration, not for every frame).
+    pub fn measure_fresh_build_cost(&self) -> f32 {
+        let boxes: Vec<Aabb> = self
+            .arena
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| n.aabb)
+            .collect();
+        let bvh = Bvh::build(&boxes, &rebuild_config());
+        tree_stats(&bvh, &self.config.sah).sah_cost
+    }
+
+    /// Number of rebuilds installed so far.
+    pub fn rebuild_count(&self) -> u64 {
+        self.quality.rebuilds
+    }
+
+    /// True while a background rebuild runs.
+    pub fn rebuild_in_flight(&self) -> bool {
+        self.quality.job.is_some()
+    }
+
+    /// The once-per-frame call: refit what moved, install a finished background rebuild,
+    /// optimise within the configured budget, and rebuild when the quality estimate passed
+    /// [`DynamicBvhConfig::rebuild_threshold`](super::DynamicBvhConfig::rebuild_threshold) or
+    /// the leaf count doubled or halved since the last rebuild. A frame in which nothing
+    /// changed costs a few comparisons.
+    pub fn maintain(&mut self) -> MaintainReport {
+        let mut report = MaintainReport {
+            refit_nodes: self.refit(),
+            ..MaintainReport::default()
+        };
+        if self
+            .quality
+            .job
+            .as_ref()
+            .is_some_and(|j| j.handle.is_finished())
+        {
+            report.rebuilt = self.finish_background_rebuild();
+        }
+        let (budget, max) = (
+            self.config.optimize_budget,
+            self.config.optimize_max_reinsertions,
+        );
+        report.optimize = self.optimize(budget, max);
+        report.quality = self.quality();
+        if self.quality.job.is_none() && self.wants_rebuild(&report.quality) {
+            if self.config.background_rebuild {
+                self.start_background_rebuild();
+                report.rebuild_started = true;
+            } else {
+                self.rebuild();
+                report.rebuilt = true;
+                report.quality = self.quality();
+            }
+        }
+        report
+    }
+
+    fn wants_rebuild(&self, q: &QualityEstimate) -> bool {
+        let n = self.leaf_count;
+        if n < self.config.min_leaves_for_rebuild {
+            return false;
+        }
+        match self.quality.calibration {
+            None => true,
+            Some(c) => {
+                n > 2 * c.leaves || 2 * n < c.leaves || q.ratio > self.config.rebuild_threshold
+            }
+        }
+    }
+
+    /// Rebuilds the whole tree with binned SAH now, keeping every handle valid.
+    pub fn rebuild(&mut self) {
+        self.refit();
+        let (snapshot, boxes) = self.snapshot();
+        let bvh = Bvh::build(&boxes, &rebuild_config());
+        self.install(&bvh, &snapshot);
+    }
+
+    /// Starts a rebuild on another thread over a snapshot of the fat boxes; a later
+    /// [`maintain`](Self::maintain) (or [`finish_background_rebuild`](Self::finish_background_rebuild))
+    /// swaps it in, with the insertions, removals and moves made meanwhile applied. Does
+    /// nothing if one is already running.
+    pub fn start_background_rebuild(&mut self) {
+        if self.quality.job.is_some() {
+            return;
+        }
+        self.refit();
+        let (snapshot, boxes) = self.snapshot();
+        let spawned = std::thread::Builder::new()
+            .name("accel-dynamic-bvh-rebuild".into())
+            .spawn(move || Bvh::build(&boxes, &rebuild_config()));
+        match spawned {
+            Ok(handle) => self.quality.job = Some(Job { handle, snapshot }),
+            // No thread to be had: the rebuild still has to happen.
+            Err(_) => self.rebuild(),
+        }
+    }
+
+    /// Waits for the background rebuild, if any, and swaps it in. Returns whether one was
+    /// installed (a build thread that panicked installs nothing and leaves the tree as is).
+    pub fn finish_background_rebuild(&mut self) -> bool {
+        let Some(job) = self.quality.job.take() else {
+            return false;
+        };
+        match job.handle.join() {
+            Ok(bvh) => {
+                self.refit();
+                self.install(&bvh, &job.snapshot);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// Drops a background rebuild without installing it.
+    pub(super) fn finish_background_rebuild_discard(&mut self) {
+        if let Some(job) = self.quality.job.take() {
+            // The result is stale by definition here; joining only reclaims the thread.
+            let _ = job.handle.join();
+        }
+    }
+
+    fn snapshot(&self) -> (Vec<(u32, u32)>, Vec<Aabb>) {
+        let mut snapshot = Vec::with_capacity(self.leaf_count);
+        let mut boxes = Vec::with_capacity(self.leaf_count);
+        for (i, n) in self.arena.nodes.iter().enumerate() {
+            if n.is_leaf() {
+                snapshot.push((i as u32, n.generation));
+                boxes.push(n.aabb);
+            }
+        }
+        (snapshot, boxes)
+    }
+
+    /// Replaces every internal node by those of `bvh`, built over the leaves of `snapshot`.
+    ///
+    /// The tree may have changed since the snapshot: leaves removed since (their generation
+    /// moved on) are dropped and their parents collapsed, leaves that moved get boxes from
+    /// their current fat bounds (boxes are recomputed bottom-up here, not copied from the
+    /// build), and leaves inserted since are inserted afterwards by the usual SAH insertion.
+    fn install(&mut self, bvh: &Bvh, snapshot: &[(u32, u32)]) {
+        debug_assert!(self.dirty.is_empty());
+        let len = self.arena.nodes.len();
+        for i in 0..len as u32 {
+            if self.arena.nodes[i as usize].is_internal() {
+                self.free_node(i);
+            }
+        }
+        self.root = NULL;
+        let nodes = bvh.nodes();
+        let prims = bvh.primitive_indices();
+        let mut map = vec![NULL; nodes.len()];
+        // Children follow their parent in the flat array, so a reverse sweep is bottom-up.
+        for i in (0..nodes.len()).rev() {
+            let n = nodes[i];
+            map[i] = if n.is_leaf() {
+                let mut m = NULL;
+                for &p in &prims[n.first as usize..(n.first + n.count) as usize] {
+                    let (leaf, generation) = snapshot[p as usize];
+                    let ln = &mut self.arena.nodes[leaf as usize];
+                    if ln.is_leaf() && ln.generation == generation {
+                        ln.flags |= FLAG_PLACED;
+                        m = self.join(m, leaf);
+                    }
+                }
+                m
+            } else {
+                self.join(map[n.first as usize], map[n.first as usize + 1])
+            };
+        }
+        if let Some(&r) = map.first()
+            && r != NULL
+        {
+            self.root = r;
+            self.arena.nodes[r as usize].parent = NULL;
+        }
+        for i in 0..len as u32 {
+            let n = &mut self.arena.nodes[i as usize];
+            if n.is_leaf() {
+                if n.flags & FLAG_PLACED != 0 {
+                    n.flags &= !FLAG_PLACED;
+                } else {
+                    n.parent = NULL;
+                    self.attach(i);
+                }
+            }
+        }
+        self.recompute_area_sums();
+        self.quality.calibration = Some(Calibration {
+            rho: if self.leaf_area > 0.0 {
+                self.internal_area / self.leaf_area
+            } else {
+                0.0
+            },
+            leaves: self.leaf_count,
+        });
+        self.quality.rebuilds += 1;
+        // The refit buffer names internal nodes that were just freed: the optimiser must not
+        // take them for candidates.
+        self.refit_sorted.clear();
+    }
+
+    /// A parent for two subtrees (either may be missing).
+    fn join(&mut self, a: u32, b: u32) -> u32 {
+        if a == NULL {
+            return b;
+        }
+        if b == NULL {
+            return a;
+        }
+        let p = self.alloc_internal();
+        let (na, nb) = (&self.arena.nodes[a as usize], &self.arena.nodes[b as usize]);
+        let (bx, h) = (na.aabb.union(&nb.aabb), 1 + na.height.max(nb.height));
+        let pn = &mut self.arena.nodes[p as usize];
+        pn.children = [a, b];
+        pn.height = h;
+        self.set_aabb(p, bx);
+        self.arena.nodes[a as usize].parent = p;
+        self.arena.nodes[b as usize].parent = p;
+        p
+    }
+
+    /// Recomputes both area sums from scratch (clears floating-point drift).
+    pub(super) fn recompute_area_sums(&mut self) {
+        let (mut internal, mut leaf) = (0.0f64, 0.0f64);
+        for n in &self.arena.nodes {
+            if n.is_leaf() {
+                leaf += f64::from(n.aabb.half_area());
+            } else if n.is_internal() {
+                internal += f64::from(n.aabb.half_area());
+            }
+        }
+        self.internal_area = internal;
+        self.leaf_area = leaf;
+    }
+}

@@ -1,0 +1,182 @@
+//! The dynamic tree's invariant checker: the static BVH's checks plus links, heights, the free
+//! list and the bookkeeping the quality monitor relies on.
+
+use super::DynamicBvh;
+use super::node::{FLAG_PLACED, FLAG_QUEUED, NULL};
+use crate::Aabb;
+use crate::bvh::validate::{ValidationError, validate_tree};
+use crate::query::BoundingTree;
+use std::fmt;
+
+/// A broken invariant of a [`DynamicBvh`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum DynamicValidationError {
+    /// A check shared with the static BVH failed (boxes, reachability, duplicates). Primitive
+    /// numbers in it are leaf ordinals in arena order, not caller ids.
+    Tree(ValidationError),
+    /// Updates are waiting for a refit, so ancestors' boxes are not current yet.
+    PendingUpdates,
+    /// A child's parent link does not name its parent (or the root's is not null).
+    ParentLink(u32),
+    /// A node's stored height is not 1 + the larger of its children's.
+    Height(u32),
+    /// A free slot is reachable from the root, or the free list is inconsistent.
+    FreeList(u32),
+    /// The number of live leaves differs from the count kept.
+    LeafCount {
+        /// Leaves found in the arena.
+        found: usize,
+        /// Leaves the tree believes it has.
+        expected: usize,
+    },
+    /// An arena slot is neither free nor reachable from the root.
+    Unreachable(u32),
+    /// A traversal flag was left set.
+    StaleFlag(u32),
+    /// The incrementally kept area sums drifted from the tree's real areas.
+    AreaSums {
+        /// Kept sums (internal, leaf).
+        kept: (f64, f64),
+        /// Recomputed sums (internal, leaf).
+        actual: (f64, f64),
+    },
+}
+
+impl fmt::Display for DynamicValidationError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "dynamic BVH invariant broken: {self:?}")
+    }
+}
+
+impl std::error::Error for DynamicValidationError {}
+
+/// The tree seen with leaf ordinals instead of caller ids as primitives, so the shared
+/// validator's "every primitive exactly once" check works whatever ids the caller chose
+/// (sparse, huge or repeated).
+struct DenseView<'a> {
+    tree: &'a DynamicBvh,
+    ordinal: Vec<u32>,
+}
+
+impl BoundingTree for DenseView<'_> {
+    fn root(&self) -> Option<u32> {
+        (self.tree.root != NULL).then_some(self.tree.root)
+    }
+    fn node_bounds(&self, node: u32) -> Aabb {
+        self.tree.arena.nodes[node as usize].aabb
+    }
+    fn node_children(&self, node: u32) -> Option<[u32; 2]> {
+        self.tree.node_children(node)
+    }
+    fn leaf_primitives(&self, node: u32) -> &[u32] {
+        if self.tree.arena.nodes[node as usize].is_leaf() {
+            core::slice::from_ref(&self.ordinal[node as usize])
+        } else {
+            &[]
+        }
+    }
+}
+
+impl DynamicBvh {
+    /// Checks every invariant: each node bounds its children, each fat leaf box contains the
+    /// leaf's tight box, each live leaf is reachable exactly once, parent links and heights
+    /// are exact, free slots are unreachable, and the area sums are current. O(n).
+    pub fn validate(&self) -> Result<(), DynamicValidationError> {
+        if !self.dirty.is_empty() {
+            return Err(DynamicValidationError::PendingUpdates);
+        }
+        let nodes = &self.arena.nodes;
+        let mut ordinal = vec![NULL; nodes.len()];
+        let mut tight = Vec::with_capacity(self.leaf_count);
+        for (i, n) in nodes.iter().enumerate() {
+            if n.is_leaf() {
+                ordinal[i] = tight.len() as u32;
+                tight.push(self.tight[i]);
+            }
+        }
+        if tight.len() != self.leaf_count {
+            return Err(DynamicValidationError::LeafCount {
+                found: tight.len(),
+                expected: self.leaf_count,
+            });
+        }
+        let view = DenseView {
+            tree: self,
+            ordinal,
+        };
+        validate_tree(&view, nodes.len(), tight.len(), |p| {
+            tight.get(p as usize).copied()
+        })
+        .map_err(DynamicValidationError::Tree)?;
+
+        // Links, heights and flags, walking from the root.
+        let mut reached = 0usize;
+        if self.root != NULL {
+            if nodes[self.root as usize].parent != NULL {
+                return Err(DynamicValidationError::ParentLink(self.root));
+            }
+            let mut stack = vec![self.root];
+            while let Some(i) = stack.pop() {
+                reached += 1;
+                let n = &nodes[i as usize];
+                if n.is_free() {
+                    return Err(DynamicValidationError::FreeList(i));
+                }
+                if n.flags & (FLAG_QUEUED | FLAG_PLACED) != 0 {
+                    return Err(DynamicValidationError::StaleFlag(i));
+                }
+                if n.is_internal() {
+                    let [a, b] = n.children;
+                    for c in [a, b] {
+                        if nodes[c as usize].parent != i {
+                            return Err(DynamicValidationError::ParentLink(c));
+                        }
+                    }
+                    if n.height != 1 + nodes[a as usize].height.max(nodes[b as usize].height) {
+                        return Err(DynamicValidationError::Height(i));
+                    }
+                    stack.push(a);
+                    stack.push(b);
+                }
+            }
+        }
+        // Every slot is either reachable or on the free list, and the free list holds only
+        // free slots.
+        let mut free_seen = 0usize;
+        for i in self.arena.free_list() {
+            if !nodes[i as usize].is_free() || free_seen > nodes.len() {
+                return Err(DynamicValidationError::FreeList(i));
+            }
+            free_seen += 1;
+        }
+        if free_seen != self.arena.free_count() {
+            return Err(DynamicValidationError::FreeList(NULL));
+        }
+        if reached + free_seen != nodes.len() {
+            let first = nodes
+                .iter()
+                .enumerate()
+                .find(|(_, n)| !n.is_free())
+                .map_or(NULL, |(i, _)| i as u32);
+            return Err(DynamicValidationError::Unreachable(first));
+        }
+        debug_assert_eq!(self.arena.live(), reached);
+
+        let (mut internal, mut leaf) = (0.0f64, 0.0f64);
+        for n in nodes {
+            if n.is_leaf() {
+                leaf += f64::from(n.aabb.half_area());
+            } else if n.is_internal() {
+                internal += f64::from(n.aabb.half_area());
+            }
+        }
+        let close = |kept: f64, actual: f64| (kept - actual).abs() <= 1e-6 * actual.abs().max(1.0);
+        if !close(self.internal_area, internal) || !close(self.leaf_area, leaf) {
+            return Err(DynamicValidationError::AreaSums {
+                kept: (self.internal_area, self.leaf_area),
+                actual: (internal, leaf),
+            });
+        }
+        Ok(())
+    }
+}
