@@ -24,8 +24,8 @@ use common::peers::{self, BvhCrateTree, BvhShape, ObvhsBvh2};
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use obvhs::BvhBuildParams;
 use std::cell::RefCell;
-use std::rc::Rc;
 use std::hint::black_box;
+use std::rc::Rc;
 use std::time::Duration;
 
 /// What a built tree reports about itself (outside the timed loop).
@@ -57,7 +57,11 @@ impl Built for Bvh {
 
 impl Built for obvhs::bvh2::Bvh2 {
     fn report(&self) -> Report {
-        binary_report(&ObvhsBvh2(self), self.nodes.len(), peers::obvhs_bvh2_bytes(self))
+        binary_report(
+            &ObvhsBvh2(self),
+            self.nodes.len(),
+            peers::obvhs_bvh2_bytes(self),
+        )
     }
 }
 
@@ -133,7 +137,11 @@ fn box_contenders(boxes: &[Aabb]) -> Vec<Contender<'_>> {
             obvhs::cwbvh::builder::build_cwbvh(&ob2, params, &mut Duration::default())
         }));
     }
-    let shapes: Vec<BvhShape> = boxes.iter().enumerate().map(|(i, b)| BvhShape::new(i, b)).collect();
+    let shapes: Vec<BvhShape> = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| BvhShape::new(i, b))
+        .collect();
     let shapes = RefCell::new(shapes);
     c.push(contender("bvh 0.13 (sah)", move || {
         let mut s = shapes.borrow_mut();
@@ -189,7 +197,9 @@ fn print_reports(title: &str, prims: usize, contenders: &[Contender<'_>]) {
         let built = (c.build)();
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let r = built.report();
-        let sah = r.sah.map_or("n/a (wide)".to_string(), |s| format!("{s:.2}"));
+        let sah = r
+            .sah
+            .map_or("n/a (wide)".to_string(), |s| format!("{s:.2}"));
         println!(
             "| {} | {ms:.1} | {} | {sah} | {:.1} |",
             c.name,
@@ -207,7 +217,11 @@ fn bench_group(c: &mut Criterion, group: &str, prims: usize, contenders: &[Conte
     }
     for con in contenders {
         g.bench_function(&con.name, |b| {
-            b.iter_batched(|| (), |()| black_box((con.build)()), BatchSize::PerIteration)
+            b.iter_batched(
+                || (),
+                |()| black_box((con.build)()),
+                BatchSize::PerIteration,
+            )
         });
     }
     g.finish();

@@ -77,6 +77,8 @@ fn ray_contenders<'a>(
     boxes: &[Aabb],
     rays: &[(Vec3A, Vec3A)],
 ) -> Vec<RayContender<'a>> {
+    // Sweep SAH is left out: its tree costs within 0.5% of binned 16's (see bvh_build) and its
+    // build takes ~10 s here.
     let mut c = vec![
         accel_contender(
             "accel binned16",
@@ -85,7 +87,7 @@ fn ray_contenders<'a>(
             boxes,
             rays,
         ),
-        accel_contender("accel sweep", SplitStrategy::SweepSah, tris, boxes, rays),
+        accel_contender("accel median", SplitStrategy::Median, tris, boxes, rays),
     ];
 
     // Ours with obvhs' triangle test, to separate the tree from the triangle test.
@@ -119,7 +121,11 @@ fn ray_contenders<'a>(
         ("medium", BvhBuildParams::medium_build()),
     ] {
         let b2 = obvhs::bvh2::builder::build_bvh2_from_tris(&ot, params, &mut Duration::default());
-        let leaf_tris: Vec<_> = b2.primitive_indices.iter().map(|&p| ot[p as usize]).collect();
+        let leaf_tris: Vec<_> = b2
+            .primitive_indices
+            .iter()
+            .map(|&p| ot[p as usize])
+            .collect();
         let r = orays.clone();
         c.push(RayContender {
             name: format!("obvhs bvh2 {preset}"),
@@ -130,8 +136,13 @@ fn ray_contenders<'a>(
                     .then(|| (b2.primitive_indices[hit.primitive_id as usize], hit.t))
             }),
         });
-        let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&ot, params, &mut Duration::default());
-        let leaf_tris: Vec<_> = cw.primitive_indices.iter().map(|&p| ot[p as usize]).collect();
+        let cw =
+            obvhs::cwbvh::builder::build_cwbvh_from_tris(&ot, params, &mut Duration::default());
+        let leaf_tris: Vec<_> = cw
+            .primitive_indices
+            .iter()
+            .map(|&p| ot[p as usize])
+            .collect();
         let r = orays.clone();
         c.push(RayContender {
             name: format!("obvhs cwbvh {preset}"),
@@ -193,7 +204,7 @@ fn check_rays(contenders: &[RayContender<'_>], n: usize) {
     let reference = &contenders[0];
     let hits = (0..n).filter(|&i| (reference.trace)(i).is_some()).count();
     println!(
-        "\nray check: {hits}/{n} rays hit ({:.1}%); every contender agrees with `{}`",
+        "\nray check: {hits}/{n} rays hit ({:.1}%); checking every contender against `{}`",
         100.0 * hits as f64 / n as f64,
         reference.name
     );
@@ -201,7 +212,11 @@ fn check_rays(contenders: &[RayContender<'_>], n: usize) {
         let bad: Vec<usize> = (0..n)
             .filter(|&i| match ((reference.trace)(i), (c.trace)(i)) {
                 (None, None) => false,
-                (Some((_, a)), Some((_, b))) => (a - b).abs() > 1e-4 * a.abs().max(b.abs()),
+                // Relative 1e-4, with distances under one unit (the scene is 200 across)
+                // held to 1e-4 absolute: Möller-Trumbore loses relative precision as t -> 0.
+                (Some((_, a)), Some((_, b))) => {
+                    (a - b).abs() > 1e-4 * a.abs().max(b.abs()).max(1.0)
+                }
                 _ => true,
             })
             .collect();
@@ -216,6 +231,7 @@ fn check_rays(contenders: &[RayContender<'_>], n: usize) {
             (c.trace)(bad[0])
         );
     }
+    println!("ray check passed: every contender finds the same closest t");
 }
 
 /// A frustum query: the ids of the boxes not outside.
@@ -259,14 +275,22 @@ fn queries(c: &mut Criterion) {
     check_rays(&contenders, CHECKED_RAYS);
     println!("| contender | bytes/tri |\n|---|---:|");
     for con in &contenders {
-        println!("| {} | {:.1} |", con.name, con.bytes as f64 / tris.len() as f64);
+        println!(
+            "| {} | {:.1} |",
+            con.name,
+            con.bytes as f64 / tris.len() as f64
+        );
     }
     let mut g = c.benchmark_group("rays_1m_tris");
     g.throughput(Throughput::Elements(RAYS_PER_ITER as u64));
     g.sample_size(10);
     for con in &contenders {
         g.bench_function(&con.name, |b| {
-            b.iter(|| (0..RAYS_PER_ITER).filter(|&i| (con.trace)(i).is_some()).count())
+            b.iter(|| {
+                (0..RAYS_PER_ITER)
+                    .filter(|&i| (con.trace)(i).is_some())
+                    .count()
+            })
         });
     }
     g.finish();
@@ -289,7 +313,9 @@ fn queries(c: &mut Criterion) {
     }
     let mut g = c.benchmark_group("frustum_1m_boxes");
     for (name, cull) in &culls {
-        g.bench_function(name, |b| b.iter(|| black_box(cull(black_box(&frustum))).len()));
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(cull(black_box(&frustum))).len())
+        });
     }
     g.finish();
 }

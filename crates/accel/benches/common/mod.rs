@@ -123,7 +123,11 @@ pub fn load_obj(path: &std::path::Path) -> Vec<Triangle> {
                     })
                     .collect();
                 for k in 1..idx.len() - 1 {
-                    tris.push(Triangle::new(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]));
+                    tris.push(Triangle::new(
+                        verts[idx[0]],
+                        verts[idx[k]],
+                        verts[idx[k + 1]],
+                    ));
                 }
             }
             _ => {}
