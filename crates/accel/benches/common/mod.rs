@@ -154,7 +154,10 @@ pub fn triangle_scene(target: usize, seed: u64) -> Vec<Triangle> {
     let mut tris = Vec::with_capacity(target);
     for _ in 0..copies {
         let scale = rng.range(3.0, 12.0) / size;
-        let rot = Quat::from_axis_angle(rng.unit_vector().into(), rng.range(0.0, 6.283));
+        let rot = Quat::from_axis_angle(
+            rng.unit_vector().into(),
+            rng.range(0.0, core::f32::consts::TAU),
+        );
         let at = rng.vec3(-TRI_EXTENT * 0.95, TRI_EXTENT * 0.95);
         let m = Mat4::from_scale_rotation_translation(Vec3::splat(scale), rot, at.into());
         let place = |v: Vec3A| Vec3A::from(m.transform_point3((v - center).into()));
