@@ -32,29 +32,52 @@ fn main() {
         .init_resource::<Highlighted>()
         .add_systems(Startup, setup)
         .add_systems(Update, (bob, screenshot_and_exit))
-        .add_systems(PostUpdate, highlight_under_cursor.after(AccelSystems::Maintain))
+        .add_systems(
+            PostUpdate,
+            highlight_under_cursor.after(AccelSystems::Maintain),
+        )
         .run();
 }
 
-fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+fn setup(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
     let cube = meshes.add(Cuboid::new(0.8, 0.8, 0.8));
     let normal = materials.add(Color::srgb(0.35, 0.45, 0.6));
     let highlighted = materials.add(Color::srgb(1.0, 0.55, 0.1));
     for x in -GRID / 2..GRID / 2 {
         for z in -GRID / 2..GRID / 2 {
             let home = Vec3::new(x as f32 * 1.5, 0.0, z as f32 * 1.5);
-            let mut e = commands.spawn((Mesh3d(cube.clone()), MeshMaterial3d(normal.clone()), Transform::from_translation(home)));
+            let mut e = commands.spawn((
+                Mesh3d(cube.clone()),
+                MeshMaterial3d(normal.clone()),
+                Transform::from_translation(home),
+            ));
             // Every other row bobs; the rest never move and live in the static tree.
             if z % 2 == 0 {
-                e.insert(Bob { home, phase: (x * 7 + z * 3) as f32 * 0.3 });
+                e.insert(Bob {
+                    home,
+                    phase: (x * 7 + z * 3) as f32 * 0.3,
+                });
             } else {
                 e.insert(AccelStatic);
             }
         }
     }
-    commands.insert_resource(Palette { normal, highlighted });
-    commands.spawn((DirectionalLight::default(), Transform::from_xyz(3.0, 10.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y)));
-    commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 28.0, 38.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    commands.insert_resource(Palette {
+        normal,
+        highlighted,
+    });
+    commands.spawn((
+        DirectionalLight::default(),
+        Transform::from_xyz(3.0, 10.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    commands.spawn((
+        Camera3d::default(),
+        Transform::from_xyz(0.0, 28.0, 38.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
 }
 
 fn bob(time: Res<Time>, mut q: Query<(&Bob, &mut Transform)>) {
@@ -75,7 +98,9 @@ fn highlight_under_cursor(
 ) {
     let (camera, camera_tf) = *camera;
     let pointer = window.cursor_position().unwrap_or(window.size() * 0.5);
-    let Ok(ray) = camera.viewport_to_world(camera_tf, pointer) else { return };
+    let Ok(ray) = camera.viewport_to_world(camera_tf, pointer) else {
+        return;
+    };
     let ray = Ray::new(ray.origin, Vec3::from(ray.direction));
     let hit = trees
         .query()
@@ -84,7 +109,10 @@ fn highlight_under_cursor(
     if hit == highlighted.0 {
         return;
     }
-    for (entity, handle) in [(highlighted.0, &palette.normal), (hit, &palette.highlighted)] {
+    for (entity, handle) in [
+        (highlighted.0, &palette.normal),
+        (hit, &palette.highlighted),
+    ] {
         if let Some(mut m) = entity.and_then(|e| materials.get_mut(e).ok()) {
             m.0 = handle.clone();
         }
@@ -95,14 +123,21 @@ fn highlight_under_cursor(
     highlighted.0 = hit;
 }
 
-fn screenshot_and_exit(mut commands: Commands, mut frame: Local<u32>, mut exit: MessageWriter<AppExit>) {
-    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else { return };
+fn screenshot_and_exit(
+    mut commands: Commands,
+    mut frame: Local<u32>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else {
+        return;
+    };
     *frame += 1;
     if *frame == 30 {
-        commands.spawn(Screenshot::primary_window()).observe(save_to_disk(path));
+        commands
+            .spawn(Screenshot::primary_window())
+            .observe(save_to_disk(path));
     }
     if *frame == 40 {
         exit.write(AppExit::Success);
     }
 }
-

@@ -50,9 +50,9 @@ mod sync;
 mod trees;
 
 pub use accel;
+pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::AccelCullingPlugin;
-pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 pub use settings::AccelSettings;
 pub use stats::AccelStats;
 pub use trees::{AccelTrees, TreeSlot};
@@ -63,7 +63,10 @@ use bevy::transform::TransformSystems;
 
 /// The most used items.
 pub mod prelude {
-    pub use crate::{AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems, AccelTracked, AccelTrees};
+    pub use crate::{
+        AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
+        AccelTracked, AccelTrees,
+    };
 }
 
 /// The plugin's system sets, in `PostUpdate`, in this order, after transform propagation and
@@ -98,7 +101,11 @@ impl Plugin for AccelPlugin {
             .init_resource::<sync::RejectedEntities>()
             .configure_sets(
                 PostUpdate,
-                (AccelSystems::Sync, AccelSystems::Maintain, AccelSystems::Stats)
+                (
+                    AccelSystems::Sync,
+                    AccelSystems::Maintain,
+                    AccelSystems::Stats,
+                )
                     .chain()
                     .after(TransformSystems::Propagate)
                     .after(VisibilitySystems::CalculateBounds)

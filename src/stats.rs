@@ -38,7 +38,8 @@ impl AccelStats {
     /// Sync time, in milliseconds.
     pub const SYNC_TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/sync_time_ms");
     /// Maintenance time, in milliseconds.
-    pub const MAINTAIN_TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/maintain_time_ms");
+    pub const MAINTAIN_TIME: DiagnosticPath =
+        DiagnosticPath::const_new("bevy_accel/maintain_time_ms");
     /// Tracked entities.
     pub const ENTITIES: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/entities");
     /// Dynamic tree depth.
@@ -47,7 +48,13 @@ impl AccelStats {
     pub const SAH_RATIO: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/sah_ratio");
 
     pub(crate) fn register(app: &mut App) {
-        for path in [Self::SYNC_TIME, Self::MAINTAIN_TIME, Self::ENTITIES, Self::DEPTH, Self::SAH_RATIO] {
+        for path in [
+            Self::SYNC_TIME,
+            Self::MAINTAIN_TIME,
+            Self::ENTITIES,
+            Self::DEPTH,
+            Self::SAH_RATIO,
+        ] {
             app.register_diagnostic(Diagnostic::new(path));
         }
     }
@@ -72,8 +79,12 @@ pub(crate) fn publish_stats(
     }
     let s = &*stats;
     diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
-    diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || s.maintain_time.as_secs_f64() * 1e3);
-    diagnostics.add_measurement(&AccelStats::ENTITIES, || (s.dynamic_entities + s.static_entities) as f64);
+    diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || {
+        s.maintain_time.as_secs_f64() * 1e3
+    });
+    diagnostics.add_measurement(&AccelStats::ENTITIES, || {
+        (s.dynamic_entities + s.static_entities) as f64
+    });
     diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_depth as f64);
     diagnostics.add_measurement(&AccelStats::SAH_RATIO, || s.sah_ratio as f64);
 }

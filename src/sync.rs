@@ -31,10 +31,19 @@ impl RejectedEntities {
 }
 
 /// The components whose arrival or departure can change an entity's tree membership.
-type MembershipComponents = (BevyAabb, GlobalTransform, AccelStatic, AccelIgnore, AccelTracked);
+type MembershipComponents = (
+    BevyAabb,
+    GlobalTransform,
+    AccelStatic,
+    AccelIgnore,
+    AccelTracked,
+);
 
 /// Queues the entity of a lifecycle event for a membership check at the next sync.
-fn queue_membership_check<E: EntityEvent>(event: On<E, MembershipComponents>, mut pending: ResMut<PendingMembership>) {
+fn queue_membership_check<E: EntityEvent>(
+    event: On<E, MembershipComponents>,
+    mut pending: ResMut<PendingMembership>,
+) {
     pending.0.insert(event.event_target());
 }
 
@@ -48,7 +57,10 @@ pub(crate) fn add_membership_observers(app: &mut App) {
 /// The world box of an entity, or why it has none. Non-finite or singular transforms would put
 /// NaN or infinities into the tree (a NaN box hides its whole subtree from every query), so
 /// they are refused here and the entity stays out until its transform is valid again.
-pub(crate) fn world_bounds(aabb: &BevyAabb, transform: &GlobalTransform) -> Result<accel::Aabb, &'static str> {
+pub(crate) fn world_bounds(
+    aabb: &BevyAabb,
+    transform: &GlobalTransform,
+) -> Result<accel::Aabb, &'static str> {
     let affine = transform.affine();
     let det = affine.matrix3.determinant();
     if !det.is_finite() || !affine.translation.is_finite() {
@@ -83,8 +95,17 @@ type MembershipQuery<'w, 's> = Query<
 type MovedQuery<'w, 's, StaticFilter> = Query<
     'w,
     's,
-    (Entity, &'static BevyAabb, &'static GlobalTransform, Has<AccelTracked>),
-    (Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>, StaticFilter, Without<AccelIgnore>),
+    (
+        Entity,
+        &'static BevyAabb,
+        &'static GlobalTransform,
+        Has<AccelTracked>,
+    ),
+    (
+        Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>,
+        StaticFilter,
+        Without<AccelIgnore>,
+    ),
 >;
 
 /// Inserts, moves and removes entities so the trees hold exactly the tracked entities with
@@ -104,13 +125,23 @@ pub(crate) fn sync_trees(
     let wanted = |tracked_marker: bool| tracked_marker || !settings.require_marker;
 
     for entity in pending.0.drain() {
-        let desired = membership.get(entity).ok().and_then(|(aabb, gt, is_static, ignored, marked)| {
-            (!ignored && wanted(marked)).then_some((aabb?, gt?, is_static))
-        });
+        let desired =
+            membership
+                .get(entity)
+                .ok()
+                .and_then(|(aabb, gt, is_static, ignored, marked)| {
+                    (!ignored && wanted(marked)).then_some((aabb?, gt?, is_static))
+                });
         match desired {
-            Some((aabb, gt, is_static)) => {
-                place_checked(&mut trees, &mut rejected, entity, aabb, gt, is_static, &mut counts)
-            }
+            Some((aabb, gt, is_static)) => place_checked(
+                &mut trees,
+                &mut rejected,
+                entity,
+                aabb,
+                gt,
+                is_static,
+                &mut counts,
+            ),
             None => {
                 rejected.0.remove(&entity);
                 counts.removed += trees.remove(entity) as usize;
@@ -119,7 +150,15 @@ pub(crate) fn sync_trees(
     }
     for (entity, aabb, gt, marked) in &moved {
         if wanted(marked) {
-            place_checked(&mut trees, &mut rejected, entity, aabb, gt, false, &mut counts);
+            place_checked(
+                &mut trees,
+                &mut rejected,
+                entity,
+                aabb,
+                gt,
+                false,
+                &mut counts,
+            );
         }
     }
     if settings.watch_static_motion {
@@ -127,7 +166,15 @@ pub(crate) fn sync_trees(
         // rebuilt static tree rather than a stale one.
         for (entity, aabb, gt, marked) in &moved_static {
             if wanted(marked) {
-                place_checked(&mut trees, &mut rejected, entity, aabb, gt, true, &mut counts);
+                place_checked(
+                    &mut trees,
+                    &mut rejected,
+                    entity,
+                    aabb,
+                    gt,
+                    true,
+                    &mut counts,
+                );
             }
         }
     }
@@ -160,7 +207,9 @@ fn place_checked(
     match world_bounds(aabb, gt) {
         Ok(bounds) => {
             if rejected.0.remove(&entity) {
-                info!("bevy_accel: entity {entity} has a valid transform again and is back in the trees");
+                info!(
+                    "bevy_accel: entity {entity} has a valid transform again and is back in the trees"
+                );
             }
             let was_tracked = trees.contains(entity);
             if trees.place(entity, bounds, is_static) {
@@ -182,7 +231,11 @@ fn place_checked(
 
 /// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
 /// decayed. Does nothing in a frame where no dynamic leaf moved.
-pub(crate) fn maintain_trees(settings: Res<AccelSettings>, mut trees: ResMut<AccelTrees>, mut stats: ResMut<AccelStats>) {
+pub(crate) fn maintain_trees(
+    settings: Res<AccelSettings>,
+    mut trees: ResMut<AccelTrees>,
+    mut stats: ResMut<AccelStats>,
+) {
     let config = DynamicBvhConfig {
         margin: settings.fat_margin,
         relative_margin: settings.relative_fat_margin,

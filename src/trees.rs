@@ -66,7 +66,10 @@ impl AccelTrees {
     /// The exact world box of the entity in a slot (the trees hold fattened boxes).
     #[inline]
     pub fn world_bounds(&self, slot: u32) -> Aabb {
-        self.slot_bounds.get(slot as usize).copied().unwrap_or(Aabb::EMPTY)
+        self.slot_bounds
+            .get(slot as usize)
+            .copied()
+            .unwrap_or(Aabb::EMPTY)
     }
 
     /// The slot and tree of a tracked entity.

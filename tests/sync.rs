@@ -4,16 +4,18 @@
 use bevy::camera::primitives::Aabb;
 use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
+use bevy_accel::TreeSlot;
 use bevy_accel::accel::SpatialQuery;
 use bevy_accel::prelude::*;
-use bevy_accel::TreeSlot;
 
 /// A reproducible stream for the scenario (PCG32).
 struct Rng(u64);
 impl Rng {
     fn next(&mut self) -> u32 {
         let old = self.0;
-        self.0 = old.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
     }
     fn f32(&mut self) -> f32 {
@@ -47,9 +49,18 @@ fn check_consistency(app: &mut App) {
         .iter(world)
         .filter_map(|(e, aabb, gt)| {
             let a = gt.affine();
-            let ok = a.matrix3.determinant().is_finite() && a.matrix3.determinant() != 0.0 && a.translation.is_finite();
+            let ok = a.matrix3.determinant().is_finite()
+                && a.matrix3.determinant() != 0.0
+                && a.translation.is_finite();
             ok.then(|| {
-                (e, bevy_accel::accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents).transformed(&a))
+                (
+                    e,
+                    bevy_accel::accel::Aabb::from_center_half_extents(
+                        aabb.center,
+                        aabb.half_extents,
+                    )
+                    .transformed(&a),
+                )
             })
         })
         .collect();
@@ -67,13 +78,19 @@ fn check_consistency(app: &mut App) {
         match tree {
             TreeSlot::Dynamic(h) => {
                 let fat = trees.dynamic().fat_bounds(h).unwrap();
-                assert!(fat.contains_aabb(&world_box), "{e}: fat box {fat:?} misses {world_box:?}");
+                assert!(
+                    fat.contains_aabb(&world_box),
+                    "{e}: fat box {fat:?} misses {world_box:?}"
+                );
             }
             TreeSlot::Static => assert_eq!(trees.world_bounds(slot), world_box),
         }
     }
     // Every slot the static tree returns is a tracked static entity.
-    let n_static = trees.iter().filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static).count();
+    let n_static = trees
+        .iter()
+        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static)
+        .count();
     assert_eq!(trees.static_tree().primitive_count(), n_static);
 }
 
@@ -91,14 +108,19 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
     let mut rng = Rng(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
-        parents.push(app.world_mut().spawn(Transform::from_translation(rng.vec3(50.0))).id());
+        parents.push(
+            app.world_mut()
+                .spawn(Transform::from_translation(rng.vec3(50.0)))
+                .id(),
+        );
     }
     let mut live: Vec<Entity> = Vec::new();
     for frame in 0..120 {
         let world = app.world_mut();
         // Spawn: some free, some children of a moving parent, some static, some ignored.
         for i in 0..60 {
-            let t = Transform::from_translation(rng.vec3(60.0)).with_scale(Vec3::splat(rng.range(0.2, 3.0)));
+            let t = Transform::from_translation(rng.vec3(60.0))
+                .with_scale(Vec3::splat(rng.range(0.2, 3.0)));
             let mut e = world.spawn((t, unit_aabb()));
             match i % 6 {
                 0 => {
@@ -151,7 +173,11 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
             let p = parents.remove(0);
             world.despawn(p);
             live.retain(|&e| world.get_entity(e).is_ok());
-            parents.push(world.spawn(Transform::from_translation(rng.vec3(50.0))).id());
+            parents.push(
+                world
+                    .spawn(Transform::from_translation(rng.vec3(50.0)))
+                    .id(),
+            );
         }
         app.update();
         check_consistency(&mut app);
@@ -162,9 +188,18 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
 #[test]
 fn bad_transforms_stay_out_until_valid_again() {
     let mut app = app();
-    let good = app.world_mut().spawn((Transform::default(), unit_aabb())).id();
-    let nan = app.world_mut().spawn((Transform::from_xyz(f32::NAN, 0.0, 0.0), unit_aabb())).id();
-    let flat = app.world_mut().spawn((Transform::from_scale(Vec3::new(1.0, 0.0, 1.0)), unit_aabb())).id();
+    let good = app
+        .world_mut()
+        .spawn((Transform::default(), unit_aabb()))
+        .id();
+    let nan = app
+        .world_mut()
+        .spawn((Transform::from_xyz(f32::NAN, 0.0, 0.0), unit_aabb()))
+        .id();
+    let flat = app
+        .world_mut()
+        .spawn((Transform::from_scale(Vec3::new(1.0, 0.0, 1.0)), unit_aabb()))
+        .id();
     app.update();
     {
         let trees = app.world().resource::<AccelTrees>();
@@ -173,8 +208,16 @@ fn bad_transforms_stay_out_until_valid_again() {
     }
     check_consistency(&mut app);
     // The good one goes bad, the bad ones get fixed.
-    app.world_mut().get_mut::<Transform>(good).unwrap().translation.y = f32::INFINITY;
-    app.world_mut().get_mut::<Transform>(nan).unwrap().translation.x = 1.0;
+    app.world_mut()
+        .get_mut::<Transform>(good)
+        .unwrap()
+        .translation
+        .y = f32::INFINITY;
+    app.world_mut()
+        .get_mut::<Transform>(nan)
+        .unwrap()
+        .translation
+        .x = 1.0;
     app.world_mut().get_mut::<Transform>(flat).unwrap().scale = Vec3::ONE;
     app.update();
     let trees = app.world().resource::<AccelTrees>();
@@ -186,7 +229,9 @@ fn bad_transforms_stay_out_until_valid_again() {
 fn a_frame_with_no_changes_does_no_tree_work() {
     let mut app = app();
     for i in 0..1000 {
-        let mut e = app.world_mut().spawn((Transform::from_xyz(i as f32, 0.0, 0.0), unit_aabb()));
+        let mut e = app
+            .world_mut()
+            .spawn((Transform::from_xyz(i as f32, 0.0, 0.0), unit_aabb()));
         if i % 2 == 0 {
             e.insert(AccelStatic);
         }
@@ -203,13 +248,30 @@ fn a_frame_with_no_changes_does_no_tree_work() {
 #[test]
 fn rays_find_entities_through_both_trees() {
     let mut app = app();
-    let near = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, -5.0), unit_aabb())).id();
-    let far = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, -9.0), unit_aabb(), AccelStatic)).id();
+    let near = app
+        .world_mut()
+        .spawn((Transform::from_xyz(0.0, 0.0, -5.0), unit_aabb()))
+        .id();
+    let far = app
+        .world_mut()
+        .spawn((
+            Transform::from_xyz(0.0, 0.0, -9.0),
+            unit_aabb(),
+            AccelStatic,
+        ))
+        .id();
     app.update();
     let trees = app.world().resource::<AccelTrees>();
     let ray = bevy_accel::accel::Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
     let mut hits = Vec::new();
-    trees.query().cast_ray_all(&ray, |s, r| r.intersect_aabb(&trees.world_bounds(s)), &mut hits);
-    let order: Vec<Entity> = hits.iter().map(|h| trees.entity(h.primitive).unwrap()).collect();
+    trees.query().cast_ray_all(
+        &ray,
+        |s, r| r.intersect_aabb(&trees.world_bounds(s)),
+        &mut hits,
+    );
+    let order: Vec<Entity> = hits
+        .iter()
+        .map(|h| trees.entity(h.primitive).unwrap())
+        .collect();
     assert_eq!(order, vec![near, far]);
 }

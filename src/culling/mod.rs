@@ -9,8 +9,10 @@
 mod system;
 
 use crate::AccelSystems;
-use bevy::app::ScheduleCleanupPolicy;
-use bevy::camera::visibility::{VisibilitySystems, check_visibility_cpu_culling, check_visibility_ranges};
+use bevy::camera::visibility::{
+    VisibilitySystems, check_visibility_cpu_culling, check_visibility_ranges,
+};
+use bevy::ecs::schedule::ScheduleCleanupPolicy;
 use bevy::prelude::*;
 
 pub use system::CullingStats;

@@ -3,11 +3,11 @@
 use crate::components::AccelIgnore;
 use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
-use accel::{Containment, Frustum as AccelFrustum};
+use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
-    NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass, VisibilityRange,
-    VisibleEntities, VisibleEntityRanges,
+    NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
+    VisibilityRange, VisibleEntities, VisibleEntityRanges,
 };
 use bevy::math::Vec4;
 use bevy::prelude::*;
@@ -66,13 +66,22 @@ pub(crate) fn cull_views_with_trees(
     ranges: Option<Res<VisibleEntityRanges>>,
     mut views: Query<ViewItem>,
     mut candidates: Query<CandidateItem, Without<NoCpuCulling>>,
-    untracked: Query<Entity, (With<ViewVisibility>, Without<NoCpuCulling>, Or<(Without<Aabb>, With<AccelIgnore>)>)>,
+    untracked: Query<
+        Entity,
+        (
+            With<ViewVisibility>,
+            Without<NoCpuCulling>,
+            Or<(Without<Aabb>, With<AccelIgnore>)>,
+        ),
+    >,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();
     let mut s = CullingStats::default();
     let ranges = ranges.as_deref();
-    for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in &mut views {
+    for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in
+        &mut views
+    {
         if !camera.is_active {
             continue;
         }
@@ -82,8 +91,17 @@ pub(crate) fn cull_views_with_trees(
         // Decides one entity as Bevy's `check_visibility_cpu_culling` does; `exact` false
         // means a tree already proved it inside the frustum.
         let mut consider = |entity: Entity, exact: bool, s: &mut CullingStats| {
-            let Ok((inherited, mut view_visibility, class, layers, aabb, sphere, transform, no_frustum_culling, has_range)) =
-                candidates.get_mut(entity)
+            let Ok((
+                inherited,
+                mut view_visibility,
+                class,
+                layers,
+                aabb,
+                sphere,
+                transform,
+                no_frustum_culling,
+                has_range,
+            )) = candidates.get_mut(entity)
             else {
                 return;
             };
@@ -116,11 +134,13 @@ pub(crate) fn cull_views_with_trees(
                 consider(entity, true, &mut s);
             }
         } else {
-            trees.query().for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
-                if let Some(entity) = trees.entity(slot) {
-                    consider(entity, containment != Containment::Inside, &mut s);
-                }
-            });
+            trees
+                .query()
+                .for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
+                    if let Some(entity) = trees.entity(slot) {
+                        consider(entity, containment != Containment::Inside, &mut s);
+                    }
+                });
         }
         for entity in untracked.iter().chain(rejected.iter()) {
             consider(entity, true, &mut s);
@@ -136,14 +156,20 @@ pub(crate) fn cull_views_with_trees(
 
 /// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane
 /// included and far plane excluded; entities with neither `Aabb` nor `Sphere` pass.
-fn bevy_frustum_test(frustum: &Frustum, aabb: Option<&Aabb>, sphere: Option<&Sphere>, transform: &GlobalTransform) -> bool {
+fn bevy_frustum_test(
+    frustum: &Frustum,
+    aabb: Option<&Aabb>,
+    sphere: Option<&Sphere>,
+    transform: &GlobalTransform,
+) -> bool {
     if let Some(aabb) = aabb {
         let world_from_local = transform.affine();
         let model_sphere = Sphere {
             center: world_from_local.transform_point3a(aabb.center),
             radius: transform.radius_vec3a(aabb.half_extents),
         };
-        frustum.intersects_sphere(&model_sphere, false) && frustum.intersects_obb(aabb, &world_from_local, true, false)
+        frustum.intersects_sphere(&model_sphere, false)
+            && frustum.intersects_obb(aabb, &world_from_local, true, false)
     } else if let Some(sphere) = sphere {
         frustum.intersects_sphere(sphere, false)
     } else {

@@ -3,10 +3,12 @@
 
 mod scenes;
 
-use accel::bvh::stats::tree_stats;
 use accel::bvh::SphereBvh;
+use accel::bvh::stats::tree_stats;
 use accel::bvh::wide::{Bvh4, Bvh8};
-use accel::{Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
+use accel::{
+    Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy,
+};
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, random_frustum, rays, scene};
 
@@ -21,26 +23,40 @@ const STRATEGIES: [SplitStrategy; 5] = [
 fn configs() -> Vec<BuildConfig> {
     let mut out = Vec::new();
     for split in STRATEGIES {
-        for (max_leaf_size, sah_termination, max_depth) in [(1, false, 64), (4, true, 64), (8, false, 64), (2, false, 3)] {
-            out.push(BuildConfig { split, max_leaf_size, sah_termination, max_depth, sah: SahCosts::default() });
+        for (max_leaf_size, sah_termination, max_depth) in
+            [(1, false, 64), (4, true, 64), (8, false, 64), (2, false, 3)]
+        {
+            out.push(BuildConfig {
+                split,
+                max_leaf_size,
+                sah_termination,
+                max_depth,
+                sah: SahCosts::default(),
+            });
         }
     }
     out
 }
 
 fn closest_brute(boxes: &[Aabb], ray: &accel::Ray) -> Option<f32> {
-    boxes.iter().filter_map(|b| ray.intersect_aabb(b)).min_by(f32::total_cmp)
+    boxes
+        .iter()
+        .filter_map(|b| ray.intersect_aabb(b))
+        .min_by(f32::total_cmp)
 }
 
 fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     let bvh = Bvh::build(boxes, cfg);
-    bvh.validate(boxes).unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
+    bvh.validate(boxes)
+        .unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
     check_queries(&bvh, boxes, seed, n_queries);
     let bvh4 = Bvh4::from_bvh(&bvh);
-    bvh4.validate(boxes).unwrap_or_else(|e| panic!("4-wide {cfg:?}: {e}"));
+    bvh4.validate(boxes)
+        .unwrap_or_else(|e| panic!("4-wide {cfg:?}: {e}"));
     check_queries(&bvh4, boxes, seed, n_queries);
     let bvh8 = Bvh8::from_bvh(&bvh);
-    bvh8.validate(boxes).unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
+    bvh8.validate(boxes)
+        .unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
     check_queries(&bvh8, boxes, seed, n_queries);
     check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
 }
@@ -63,7 +79,12 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
         let mut want_all: Vec<RayHit> = boxes
             .iter()
             .enumerate()
-            .filter_map(|(i, b)| ray.intersect_aabb(b).map(|t| RayHit { primitive: i as u32, t }))
+            .filter_map(|(i, b)| {
+                ray.intersect_aabb(b).map(|t| RayHit {
+                    primitive: i as u32,
+                    t,
+                })
+            })
             .collect();
         accel::query::binary::sort_hits(&mut want_all);
         assert_eq!(all, want_all);
@@ -80,7 +101,9 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].intersects_aabb(&q)).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].intersects_aabb(&q))
+            .collect();
         assert_eq!(got, want, "aabb overlap");
 
         let s = Sphere::new(rng.vec3(-extent, extent), rng.range(0.0, 40.0));
@@ -92,7 +115,9 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| s.intersects_aabb(&boxes[i as usize])).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| s.intersects_aabb(&boxes[i as usize]))
+            .collect();
         assert_eq!(got, want, "sphere overlap");
 
         let p = rng.vec3(-extent, extent);
@@ -104,14 +129,17 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
             ControlFlow::Continue(())
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].contains_point(p)).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].contains_point(p))
+            .collect();
         assert_eq!(got, want, "point containment");
 
         // k nearest by box distance.
         let k = 1 + rng.below(8) as usize;
         let got = bvh.nearest_k(p, k, |i| boxes[i as usize].distance_squared_to_point(p));
-        let mut want: Vec<(u32, f32)> =
-            (0..boxes.len() as u32).map(|i| (i, boxes[i as usize].distance_squared_to_point(p))).collect();
+        let mut want: Vec<(u32, f32)> = (0..boxes.len() as u32)
+            .map(|i| (i, boxes[i as usize].distance_squared_to_point(p)))
+            .collect();
         want.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         want.truncate(k);
         assert_eq!(got, want, "k nearest");
@@ -122,14 +150,20 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
         bvh.for_each_in_frustum(&f, |i, c| {
             let exact = f.classify_aabb(&boxes[i as usize]);
             if c == Containment::Inside {
-                assert_eq!(exact, Containment::Inside, "subtree accepted but primitive not inside");
+                assert_eq!(
+                    exact,
+                    Containment::Inside,
+                    "subtree accepted but primitive not inside"
+                );
             }
             if exact != Containment::Outside {
                 got.push(i);
             }
         });
         got.sort_unstable();
-        let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| f.intersects_aabb(&boxes[i as usize])).collect();
+        let want: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| f.intersects_aabb(&boxes[i as usize]))
+            .collect();
         assert_eq!(got, want, "frustum");
     }
 }
@@ -138,7 +172,11 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
 fn every_strategy_matches_brute_force_on_every_scene_kind() {
     let mut seed = 1;
     for cfg in configs() {
-        for kind in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate] {
+        for kind in [
+            SceneKind::Uniform,
+            SceneKind::Clustered,
+            SceneKind::Degenerate,
+        ] {
             for n in [1, 2, 3, 17, 300] {
                 seed += 1;
                 let boxes = scene(kind, n, seed);
@@ -150,7 +188,14 @@ fn every_strategy_matches_brute_force_on_every_scene_kind() {
 
 #[test]
 fn large_scenes_match_brute_force() {
-    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate].into_iter().enumerate() {
+    for (i, kind) in [
+        SceneKind::Uniform,
+        SceneKind::Clustered,
+        SceneKind::Degenerate,
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let boxes = scene(kind, 20_000, 77 + i as u64);
         check_scene(&boxes, &BuildConfig::default(), 99, 60);
     }
@@ -183,7 +228,10 @@ fn a_million_identical_boxes_terminate_with_small_leaves() {
         let bvh = Bvh::build(&boxes, &cfg);
         bvh.validate(&boxes).unwrap();
         let s = tree_stats(&bvh, &cfg.sah);
-        assert!(s.max_leaf_size <= cfg.max_leaf_size as usize, "{split:?}: {s:?}");
+        assert!(
+            s.max_leaf_size <= cfg.max_leaf_size as usize,
+            "{split:?}: {s:?}"
+        );
         assert!(s.max_depth <= 24, "{split:?}: {s:?}");
     }
 }
@@ -207,16 +255,28 @@ fn invalid_boxes_are_left_out_and_infinite_ones_kept() {
 
 #[test]
 fn binned_sah_is_within_three_percent_of_sweep_sah() {
-    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered].into_iter().enumerate() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered]
+        .into_iter()
+        .enumerate()
+    {
         let boxes = scene(kind, 50_000, 11 + i as u64);
         let costs = SahCosts::default();
-        let sweep = tree_stats(&Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::SweepSah)), &costs);
+        let sweep = tree_stats(
+            &Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::SweepSah)),
+            &costs,
+        );
         let binned = tree_stats(
-            &Bvh::build(&boxes, &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 })),
+            &Bvh::build(
+                &boxes,
+                &BuildConfig::with_split(SplitStrategy::BinnedSah { bins: 16 }),
+            ),
             &costs,
         );
         let ratio = binned.sah_cost / sweep.sah_cost;
-        println!("{kind:?}: sweep {:.2} binned {:.2} ratio {ratio:.4}", sweep.sah_cost, binned.sah_cost);
+        println!(
+            "{kind:?}: sweep {:.2} binned {:.2} ratio {ratio:.4}",
+            sweep.sah_cost, binned.sah_cost
+        );
         assert!(ratio <= 1.03, "{kind:?}: binned/sweep = {ratio}");
     }
 }
@@ -252,13 +312,23 @@ fn empty_tree_answers_nothing() {
 #[cfg(feature = "rayon")]
 #[test]
 fn parallel_build_equals_serial_build() {
-    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered, SceneKind::Degenerate].into_iter().enumerate() {
+    for (i, kind) in [
+        SceneKind::Uniform,
+        SceneKind::Clustered,
+        SceneKind::Degenerate,
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let boxes = scene(kind, 100_000, 40 + i as u64);
         let cfg = BuildConfig::default();
         let serial = Bvh::build(&boxes, &cfg);
         let parallel = Bvh::build_parallel(&boxes, &cfg);
         parallel.validate(&boxes).unwrap();
-        let (s, p) = (tree_stats(&serial, &cfg.sah), tree_stats(&parallel, &cfg.sah));
+        let (s, p) = (
+            tree_stats(&serial, &cfg.sah),
+            tree_stats(&parallel, &cfg.sah),
+        );
         assert_eq!(s, p, "{kind:?}");
         for ray in rays(300, 3, 120.0) {
             let a = serial.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));

@@ -23,7 +23,10 @@ fn soup(rng: &mut Rng, n: usize) -> TestMesh {
             vertices.push((c + rng.vec3(-size, size)).into());
         }
     }
-    TestMesh { indices: (0..vertices.len() as u32).collect(), vertices }
+    TestMesh {
+        indices: (0..vertices.len() as u32).collect(),
+        vertices,
+    }
 }
 
 /// A UV sphere with shared vertices.
@@ -33,7 +36,8 @@ fn sphere(rings: u32, segments: u32) -> TestMesh {
         let phi = core::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..segments {
             let theta = core::f32::consts::TAU * s as f32 / segments as f32;
-            vertices.push(Vec3::new(phi.sin() * theta.cos(), phi.cos(), phi.sin() * theta.sin()) * 2.0);
+            vertices
+                .push(Vec3::new(phi.sin() * theta.cos(), phi.cos(), phi.sin() * theta.sin()) * 2.0);
         }
     }
     let mut indices = Vec::new();
@@ -55,7 +59,8 @@ fn brute_mesh(m: &TestMesh, ray: &Ray, backfaces: Backfaces) -> Vec<(f32, u32)> 
         .enumerate()
         .filter_map(|(i, t)| {
             let [a, b, c] = [0, 1, 2].map(|k| Vec3A::from(m.vertices[t[k] as usize]));
-            wt.intersect_vertices(a, b, c, backfaces).map(|h| (h.t, i as u32))
+            wt.intersect_vertices(a, b, c, backfaces)
+                .map(|h| (h.t, i as u32))
         })
         .collect();
     hits.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -71,7 +76,10 @@ fn random_ray(rng: &mut Rng, extent: f32) -> Ray {
 #[test]
 fn mesh_bvh_matches_brute_force() {
     let mut rng = Rng::new(31);
-    for (mi, mesh) in [soup(&mut rng, 2000), sphere(24, 32), soup(&mut rng, 3)].iter().enumerate() {
+    for (mi, mesh) in [soup(&mut rng, 2000), sphere(24, 32), soup(&mut rng, 3)]
+        .iter()
+        .enumerate()
+    {
         let bvh = MeshBvh::new(&mesh.vertices, &mesh.indices).unwrap();
         bvh.validate().unwrap();
         assert_eq!(bvh.triangle_count(), mesh.indices.len() / 3);
@@ -113,7 +121,11 @@ fn refit_follows_moved_vertices() {
         for _ in 0..500 {
             let ray = random_ray(&mut rng, 4.0);
             let want = brute_mesh(&mesh, &ray, Backfaces::Include);
-            assert_eq!(bvh.cast_ray(&ray, Backfaces::Include).map(|h| h.t), want.first().map(|w| w.0), "frame {frame}");
+            assert_eq!(
+                bvh.cast_ray(&ray, Backfaces::Include).map(|h| h.t),
+                want.first().map(|w| w.0),
+                "frame {frame}"
+            );
         }
     }
     assert!(bvh.refit(&mesh.vertices[1..]).is_err());
@@ -128,13 +140,21 @@ fn bad_meshes_are_errors_not_panics() {
     let m = MeshBvh::new(&nan, &[0, 1, 2, 0, 1, 3]).unwrap();
     assert_eq!(m.triangle_count(), 1);
     let empty = MeshBvh::new(&v, &[]).unwrap();
-    assert!(empty.cast_ray(&Ray::new(Vec3A::ZERO, Vec3A::X), Backfaces::Include).is_none());
+    assert!(
+        empty
+            .cast_ray(&Ray::new(Vec3A::ZERO, Vec3A::X), Backfaces::Include)
+            .is_none()
+    );
 }
 
 fn random_transform(rng: &mut Rng) -> Affine3A {
     let axis = rng.unit_vector();
     let rot = Quat::from_axis_angle(axis.into(), rng.range(0.0, 6.28));
-    let mut scale = Vec3::new(rng.range(0.2, 3.0), rng.range(0.2, 3.0), rng.range(0.2, 3.0));
+    let mut scale = Vec3::new(
+        rng.range(0.2, 3.0),
+        rng.range(0.2, 3.0),
+        rng.range(0.2, 3.0),
+    );
     if rng.below(3) == 0 {
         scale.x = -scale.x; // mirrored instances
     }
@@ -145,18 +165,26 @@ fn random_transform(rng: &mut Rng) -> Affine3A {
 fn two_level_scene_matches_brute_force() {
     let mut rng = Rng::new(8);
     let meshes = [soup(&mut rng, 300), sphere(12, 16)];
-    let bvhs: Vec<Arc<MeshBvh>> =
-        meshes.iter().map(|m| Arc::new(MeshBvh::new(&m.vertices, &m.indices).unwrap())).collect();
+    let bvhs: Vec<Arc<MeshBvh>> = meshes
+        .iter()
+        .map(|m| Arc::new(MeshBvh::new(&m.vertices, &m.indices).unwrap()))
+        .collect();
     let mut instances = Vec::new();
     let mut placed = Vec::new();
     for i in 0..200 {
         let mi = i % 2;
         let m = random_transform(&mut rng);
-        instances.push(Instance { mesh: bvhs[mi].clone(), world_from_local: m });
+        instances.push(Instance {
+            mesh: bvhs[mi].clone(),
+            world_from_local: m,
+        });
         placed.push((mi, m.inverse()));
     }
     // A singular instance is rejected, not a panic.
-    instances.push(Instance { mesh: bvhs[0].clone(), world_from_local: Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)) });
+    instances.push(Instance {
+        mesh: bvhs[0].clone(),
+        world_from_local: Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+    });
     let scene = InstancedScene::new(instances);
     assert_eq!(scene.rejected_instances(), &[200]);
     let mut all = Vec::new();
@@ -165,18 +193,31 @@ fn two_level_scene_matches_brute_force() {
         let mut want: Vec<(f32, u32, u32)> = Vec::new();
         for (i, (mi, inv)) in placed.iter().enumerate() {
             let local = ray.transformed(inv);
-            want.extend(brute_mesh(&meshes[*mi], &local, Backfaces::Include).into_iter().map(|(t, tri)| (t, i as u32, tri)));
+            want.extend(
+                brute_mesh(&meshes[*mi], &local, Backfaces::Include)
+                    .into_iter()
+                    .map(|(t, tri)| (t, i as u32, tri)),
+            );
         }
         want.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
         let got = scene.cast_ray(&ray, Backfaces::Include);
         assert_eq!(got.map(|h| h.hit.t), want.first().map(|w| w.0));
         if let Some(h) = got {
-            assert!(want.iter().any(|w| w.0 == h.hit.t && w.1 == h.instance && w.2 == h.hit.triangle));
+            assert!(
+                want.iter()
+                    .any(|w| w.0 == h.hit.t && w.1 == h.instance && w.2 == h.hit.triangle)
+            );
         }
-        assert_eq!(scene.cast_ray_any(&ray, Backfaces::Include), !want.is_empty());
+        assert_eq!(
+            scene.cast_ray_any(&ray, Backfaces::Include),
+            !want.is_empty()
+        );
         all.clear();
         scene.cast_ray_all(&ray, Backfaces::Include, &mut all);
-        let got_all: Vec<(f32, u32, u32)> = all.iter().map(|h| (h.hit.t, h.instance, h.hit.triangle)).collect();
+        let got_all: Vec<(f32, u32, u32)> = all
+            .iter()
+            .map(|h| (h.hit.t, h.instance, h.hit.triangle))
+            .collect();
         assert_eq!(got_all, want);
     }
 }

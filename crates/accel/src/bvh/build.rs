@@ -67,7 +67,11 @@ pub(super) fn collect_prims(bounds: &[Aabb]) -> Vec<BuildPrim> {
 }
 
 /// One node's decision: its box, and where its primitives split (`None` for a leaf).
-pub(super) fn split_node(prims: &mut [BuildPrim], depth: u32, config: &BuildConfig) -> (Aabb, Option<usize>) {
+pub(super) fn split_node(
+    prims: &mut [BuildPrim],
+    depth: u32,
+    config: &BuildConfig,
+) -> (Aabb, Option<usize>) {
     let (node_bounds, centroid_bounds) = bounds_of(prims);
     let count = prims.len();
     let outcome = if count == 1 || depth >= config.max_depth {
@@ -89,7 +93,12 @@ pub(super) fn split_node(prims: &mut [BuildPrim], depth: u32, config: &BuildConf
 /// Builds the tree over `prims` with its root at index 0 of the returned array. Leaves refer to
 /// primitive slots `prim_offset + i`; the root sits at `depth`. Children always follow their
 /// parent in the array (refits rely on it).
-pub(super) fn build_subtree(prims: &mut [BuildPrim], config: &BuildConfig, prim_offset: usize, depth: u32) -> Vec<BvhNode> {
+pub(super) fn build_subtree(
+    prims: &mut [BuildPrim],
+    config: &BuildConfig,
+    prim_offset: usize,
+    depth: u32,
+) -> Vec<BvhNode> {
     let n = prims.len();
     if n == 0 {
         return Vec::new();

@@ -11,13 +11,21 @@ const SERIAL_BELOW: usize = 4096;
 /// Builds like [`super::build::build_nodes`], splitting the top of the tree serially and
 /// handing the two halves of every large node to `rayon::join`. The result is the tree the
 /// serial build makes (same splits, same leaves), laid out in another node order.
-pub(super) fn build_nodes_parallel(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+pub(super) fn build_nodes_parallel(
+    bounds: &[Aabb],
+    config: &BuildConfig,
+) -> (Vec<BvhNode>, Vec<u32>) {
     let mut prims = collect_prims(bounds);
     let nodes = build_parallel(&mut prims, config, 0, 0);
     (nodes, prims.iter().map(|p| p.index).collect())
 }
 
-fn build_parallel(prims: &mut [BuildPrim], config: &BuildConfig, prim_offset: usize, depth: u32) -> Vec<BvhNode> {
+fn build_parallel(
+    prims: &mut [BuildPrim],
+    config: &BuildConfig,
+    prim_offset: usize,
+    depth: u32,
+) -> Vec<BvhNode> {
     if prims.len() < SERIAL_BELOW {
         return build_subtree(prims, config, prim_offset, depth);
     }

@@ -79,7 +79,9 @@ impl SphereBvh {
 
     fn leaf(&self, node: usize) -> Option<&[u32]> {
         let c = self.count[node] as usize;
-        (c > 0).then(|| &self.primitive_indices[self.first[node] as usize..self.first[node] as usize + c])
+        (c > 0).then(|| {
+            &self.primitive_indices[self.first[node] as usize..self.first[node] as usize + c]
+        })
     }
 
     /// Depth-first walk: `enter(sphere)` says whether to descend.
@@ -238,7 +240,11 @@ impl SpatialQuery for SphereBvh {
         let mut stack: TraversalStack<(u32, bool)> = TraversalStack::new();
         stack.push((0, false));
         while let Some((n, accepted)) = stack.pop() {
-            let c = if accepted { Containment::Inside } else { frustum.classify_sphere(&self.spheres[n as usize]) };
+            let c = if accepted {
+                Containment::Inside
+            } else {
+                frustum.classify_sphere(&self.spheres[n as usize])
+            };
             if c == Containment::Outside {
                 continue;
             }
@@ -283,7 +289,8 @@ impl SpatialQuery for SphereBvh {
                             continue;
                         }
                         let key = |e: &(u32, f32)| (e.1, e.0);
-                        let pos = best.partition_point(|e| key(e).0 < d || (key(e).0 == d && e.0 < p));
+                        let pos =
+                            best.partition_point(|e| key(e).0 < d || (key(e).0 == d && e.0 < p));
                         if pos < k {
                             best.insert(pos, (p, d));
                             best.truncate(k);

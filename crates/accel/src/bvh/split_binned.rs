@@ -31,7 +31,14 @@ pub(super) fn split(
     }
 }
 
-type SplitArgs<'a> = (&'a mut [BuildPrim], &'a Aabb, &'a Aabb, usize, &'a BuildConfig, bool);
+type SplitArgs<'a> = (
+    &'a mut [BuildPrim],
+    &'a Aabb,
+    &'a Aabb,
+    usize,
+    &'a BuildConfig,
+    bool,
+);
 
 fn split_with<const B: usize>(
     (prims, node_bounds, centroid_bounds, bins, config, may_stop): SplitArgs<'_>,

@@ -35,10 +35,19 @@ impl fmt::Display for MeshError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::NotATriangleList { index_count } => {
-                write!(f, "{index_count} indices is not a triangle list (not a multiple of 3)")
+                write!(
+                    f,
+                    "{index_count} indices is not a triangle list (not a multiple of 3)"
+                )
             }
-            Self::IndexOutOfRange { index, vertex_count } => {
-                write!(f, "index {index} is out of range for {vertex_count} vertices")
+            Self::IndexOutOfRange {
+                index,
+                vertex_count,
+            } => {
+                write!(
+                    f,
+                    "index {index} is out of range for {vertex_count} vertices"
+                )
             }
             Self::VertexCountChanged { expected, got } => {
                 write!(f, "refit with {got} vertices, but the mesh has {expected}")
@@ -86,15 +95,27 @@ impl MeshBvh {
     }
 
     /// Builds with a chosen configuration.
-    pub fn with_config(vertices: &[Vec3], indices: &[u32], config: &BuildConfig) -> Result<Self, MeshError> {
+    pub fn with_config(
+        vertices: &[Vec3],
+        indices: &[u32],
+        config: &BuildConfig,
+    ) -> Result<Self, MeshError> {
         if indices.len() % 3 != 0 {
-            return Err(MeshError::NotATriangleList { index_count: indices.len() });
+            return Err(MeshError::NotATriangleList {
+                index_count: indices.len(),
+            });
         }
         if let Some(&index) = indices.iter().find(|&&i| i as usize >= vertices.len()) {
-            return Err(MeshError::IndexOutOfRange { index, vertex_count: vertices.len() });
+            return Err(MeshError::IndexOutOfRange {
+                index,
+                vertex_count: vertices.len(),
+            });
         }
         let corners = |t: &[u32]| [0, 1, 2].map(|k| Vec3A::from(vertices[t[k] as usize]));
-        let boxes: Vec<Aabb> = indices.chunks_exact(3).map(|t| triangle_bounds(&corners(t))).collect();
+        let boxes: Vec<Aabb> = indices
+            .chunks_exact(3)
+            .map(|t| triangle_bounds(&corners(t)))
+            .collect();
         let bvh = Bvh::build(&boxes, config);
         let triangle_ids = bvh.primitive_indices().to_vec();
         let triangles = triangle_ids
@@ -213,7 +234,9 @@ impl MeshBvh {
 
     /// Checks the tree against the mesh's current triangles (see [`Bvh8::validate`]).
     pub fn validate(&self) -> Result<(), crate::bvh::validate::ValidationError> {
-        let boxes: Vec<Aabb> = (0..self.triangles.len() as u32).map(|s| self.triangle_aabb(s)).collect();
+        let boxes: Vec<Aabb> = (0..self.triangles.len() as u32)
+            .map(|s| self.triangle_aabb(s))
+            .collect();
         self.tree.validate(&boxes)
     }
 
@@ -221,13 +244,17 @@ impl MeshBvh {
     /// its topology: fast, but the tree degrades if the pose strays far from the build pose.
     pub fn refit(&mut self, vertices: &[Vec3]) -> Result<(), MeshError> {
         if vertices.len() != self.vertex_count {
-            return Err(MeshError::VertexCountChanged { expected: self.vertex_count, got: vertices.len() });
+            return Err(MeshError::VertexCountChanged {
+                expected: self.vertex_count,
+                got: vertices.len(),
+            });
         }
         for (tri, idx) in self.triangles.iter_mut().zip(&self.indices) {
             *tri = idx.map(|i| Vec3A::from(vertices[i as usize]));
         }
         let triangles = &self.triangles;
-        self.tree.refit(|slot| triangle_bounds(&triangles[slot as usize]));
+        self.tree
+            .refit(|slot| triangle_bounds(&triangles[slot as usize]));
         Ok(())
     }
 }

@@ -94,7 +94,11 @@ impl InstancedScene {
             })
             .collect();
         let top = Bvh8::from_bvh(&Bvh::build(&boxes, &BuildConfig::default()));
-        Self { top, instances: placed, rejected }
+        Self {
+            top,
+            instances: placed,
+            rejected,
+        }
     }
 
     /// Instances left out for a non-invertible or non-finite transform.
@@ -124,7 +128,9 @@ impl InstancedScene {
         let mut best: Option<(u32, MeshHit)> = None;
         self.top.cast_ray(ray, |i, r| {
             let inst = self.instance(i);
-            let h = inst.mesh.cast_ray(&r.transformed(&inst.local_from_world), backfaces)?;
+            let h = inst
+                .mesh
+                .cast_ray(&r.transformed(&inst.local_from_world), backfaces)?;
             if best.is_none_or(|(_, b)| h.t < b.t) {
                 best = Some((i, h));
             }
@@ -138,7 +144,8 @@ impl InstancedScene {
         self.top
             .cast_ray_any(ray, |i, r| {
                 let inst = self.instance(i);
-                inst.mesh.cast_ray_any(&r.transformed(&inst.local_from_world), backfaces)
+                inst.mesh
+                    .cast_ray_any(&r.transformed(&inst.local_from_world), backfaces)
             })
             .is_some()
     }
@@ -150,12 +157,17 @@ impl InstancedScene {
         self.top.cast_ray_any(ray, |i, r| {
             let inst = self.instance(i);
             mesh_hits.clear();
-            inst.mesh.cast_ray_all(&r.transformed(&inst.local_from_world), backfaces, &mut mesh_hits);
+            inst.mesh.cast_ray_all(
+                &r.transformed(&inst.local_from_world),
+                backfaces,
+                &mut mesh_hits,
+            );
             out.extend(mesh_hits.iter().map(|h| self.to_world(i, *h)));
             false
         });
         out[start..].sort_unstable_by(|a, b| {
-            a.hit.t
+            a.hit
+                .t
                 .total_cmp(&b.hit.t)
                 .then(a.instance.cmp(&b.instance))
                 .then(a.hit.triangle.cmp(&b.hit.triangle))

@@ -1,9 +1,9 @@
 //! From binary to wide: pull grandchildren up until each node has `N` children.
 
 use super::{WideBvh, WideNode};
+use crate::Aabb;
 use crate::bvh::validate::ValidationError;
 use crate::bvh::{Bvh, BvhNode};
-use crate::Aabb;
 
 /// Collapses top-down. At each wide node the binary children are opened greedily, always the
 /// interior one with the largest surface area: that is the child a random ray is most likely
@@ -67,7 +67,10 @@ pub(super) fn collapse<const N: usize>(bvh: &Bvh) -> WideBvh<N> {
     out
 }
 
-pub(super) fn validate<const N: usize>(tree: &WideBvh<N>, bounds: &[Aabb]) -> Result<(), ValidationError> {
+pub(super) fn validate<const N: usize>(
+    tree: &WideBvh<N>,
+    bounds: &[Aabb],
+) -> Result<(), ValidationError> {
     let mut seen_prim = vec![false; bounds.len()];
     let mut seen_node = vec![false; tree.nodes.len()];
     if !tree.nodes.is_empty() {
@@ -83,7 +86,10 @@ pub(super) fn validate<const N: usize>(tree: &WideBvh<N>, bounds: &[Aabb]) -> Re
             for i in (0..N).filter(|&i| n.is_used(i)) {
                 let b = n.child_aabb(i);
                 if !parent_box.contains_aabb(&b) {
-                    return Err(ValidationError::ChildOutsideParent { parent: node, child: n.child[i] });
+                    return Err(ValidationError::ChildOutsideParent {
+                        parent: node,
+                        child: n.child[i],
+                    });
                 }
                 if !n.is_leaf(i) {
                     stack.push((n.child[i], b));
@@ -100,7 +106,10 @@ pub(super) fn validate<const N: usize>(tree: &WideBvh<N>, bounds: &[Aabb]) -> Re
                         return Err(ValidationError::DuplicatePrimitive(p));
                     }
                     if !b.contains_aabb(&pb) {
-                        return Err(ValidationError::PrimitiveOutsideLeaf { leaf: node, primitive: p });
+                        return Err(ValidationError::PrimitiveOutsideLeaf {
+                            leaf: node,
+                            primitive: p,
+                        });
                     }
                 }
             }

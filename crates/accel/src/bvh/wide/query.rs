@@ -1,9 +1,9 @@
 //! [`SpatialQuery`] for wide trees: rays through the SIMD traversal, the rest per slot.
 
-use super::ray::visit_ray;
 use super::WideBvh;
-use crate::query::binary::sort_hits;
+use super::ray::visit_ray;
 use crate::query::TraversalStack;
+use crate::query::binary::sort_hits;
 use crate::{Aabb, Containment, Frustum, Ray, RayHit, SpatialQuery, Sphere};
 use core::cmp::Reverse;
 use core::ops::ControlFlow;
@@ -192,7 +192,11 @@ impl<const N: usize> SpatialQuery for WideBvh<N> {
         let key = |d2: f32| d2.to_bits();
         let mut frontier: BinaryHeap<Reverse<(u32, u32, usize)>> = BinaryHeap::new();
         let mut best: BinaryHeap<(u32, u32)> = BinaryHeap::new(); // (d2 bits, id): max-heap
-        frontier.push(Reverse((key(self.bounds.distance_squared_to_point(point)), 0, N)));
+        frontier.push(Reverse((
+            key(self.bounds.distance_squared_to_point(point)),
+            0,
+            N,
+        )));
         while let Some(Reverse((d2, n, slot))) = frontier.pop() {
             if best.len() == k && best.peek().is_some_and(|w| d2 > w.0) {
                 break;
@@ -222,7 +226,10 @@ impl<const N: usize> SpatialQuery for WideBvh<N> {
             }
         }
         // Non-negative floats order like their bit patterns, so the heaps compared bits.
-        let mut out: Vec<(u32, f32)> = best.into_iter().map(|(d, id)| (id, f32::from_bits(d))).collect();
+        let mut out: Vec<(u32, f32)> = best
+            .into_iter()
+            .map(|(d, id)| (id, f32::from_bits(d)))
+            .collect();
         out.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         out
     }

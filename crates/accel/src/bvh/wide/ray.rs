@@ -70,8 +70,16 @@ fn test_children<const N: usize>(node: &WideNode<N>, r: &RayLanes, t_max: f32) -
     let t_max = Vec4::splat(t_max);
     let widen = Vec4::splat(SLAB_WIDENING);
     for chunk in 0..N / 4 {
-        let mins = [lanes(&node.min_x, chunk), lanes(&node.min_y, chunk), lanes(&node.min_z, chunk)];
-        let maxs = [lanes(&node.max_x, chunk), lanes(&node.max_y, chunk), lanes(&node.max_z, chunk)];
+        let mins = [
+            lanes(&node.min_x, chunk),
+            lanes(&node.min_y, chunk),
+            lanes(&node.min_z, chunk),
+        ];
+        let maxs = [
+            lanes(&node.max_x, chunk),
+            lanes(&node.max_y, chunk),
+            lanes(&node.max_z, chunk),
+        ];
         let mut near = Vec4::NEG_INFINITY;
         let mut far = Vec4::INFINITY;
         for axis in 0..3 {
