@@ -149,7 +149,7 @@ fn bad_meshes_are_errors_not_panics() {
 
 fn random_transform(rng: &mut Rng) -> Affine3A {
     let axis = rng.unit_vector();
-    let rot = Quat::from_axis_angle(axis.into(), rng.range(0.0, 6.28));
+    let rot = Quat::from_axis_angle(axis.into(), rng.range(0.0, core::f32::consts::TAU));
     let mut scale = Vec3::new(
         rng.range(0.2, 3.0),
         rng.range(0.2, 3.0),

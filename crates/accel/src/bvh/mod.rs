@@ -154,6 +154,20 @@ impl BoundingTree for Bvh {
             &[]
         }
     }
+
+    /// The builder partitions in place, left child before right, so a subtree's primitives
+    /// run from its leftmost leaf to its rightmost: two walks down its edges find them.
+    fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
+        let (mut left, mut right) = (&self.nodes[node as usize], &self.nodes[node as usize]);
+        while !left.is_leaf() {
+            left = &self.nodes[left.first as usize];
+        }
+        while !right.is_leaf() {
+            right = &self.nodes[right.first as usize + 1];
+        }
+        self.primitive_indices
+            .get(left.first as usize..(right.first + right.count) as usize)
+    }
 }
 
 crate::impl_spatial_query_for_binary_tree!(Bvh);

@@ -137,6 +137,13 @@ impl BoundingTree for StaticDynamicPair {
             self.dynamic.leaf_primitives(node)
         }
     }
+
+    #[inline]
+    fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
+        (node != VIRTUAL_ROOT && node & STATIC_TAG != 0)
+            .then(|| self.static_tree.subtree_primitives(node & !STATIC_TAG))
+            .flatten()
+    }
 }
 
 crate::impl_spatial_query_for_binary_tree!(StaticDynamicPair);

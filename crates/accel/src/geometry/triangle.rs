@@ -160,9 +160,11 @@ impl WatertightRay {
         backfaces: Backfaces,
     ) -> Option<TriangleHit> {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = v0 - self.origin;
-        let b = v1 - self.origin;
-        let c = v2 - self.origin;
+        // Plain arrays: indexing `Vec3A` by a run-time axis goes through a `match`, which
+        // costs more than the rest of the test; an array index is one load.
+        let a = (v0 - self.origin).to_array();
+        let b = (v1 - self.origin).to_array();
+        let c = (v2 - self.origin).to_array();
         let ax = a[kx] - self.shear_x * a[kz];
         let ay = a[ky] - self.shear_y * a[kz];
         let bx = b[kx] - self.shear_x * b[kz];

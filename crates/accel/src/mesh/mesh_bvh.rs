@@ -100,7 +100,7 @@ impl MeshBvh {
         indices: &[u32],
         config: &BuildConfig,
     ) -> Result<Self, MeshError> {
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(MeshError::NotATriangleList {
                 index_count: indices.len(),
             });

@@ -194,6 +194,10 @@ where
             Containment::Outside => {}
             Containment::Inside => {
                 // The whole subtree is in view: emit it without testing another plane.
+                if let Some(prims) = tree.subtree_primitives(node) {
+                    prims.iter().for_each(|&p| visit(p, Containment::Inside));
+                    continue;
+                }
                 for_each_leaf_primitive(
                     &tree.subtree(node),
                     |_| true,
@@ -322,6 +326,9 @@ impl<T: BoundingTree + ?Sized> BoundingTree for Subtree<'_, T> {
     }
     fn leaf_primitives(&self, node: u32) -> &[u32] {
         self.tree.leaf_primitives(node)
+    }
+    fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
+        self.tree.subtree_primitives(node)
     }
 }
 

@@ -19,4 +19,11 @@ pub trait BoundingTree {
 
     /// The primitive ids stored in a leaf (empty for interior nodes).
     fn leaf_primitives(&self, node: u32) -> &[u32];
+
+    /// All primitive ids below a node as one slice, when the tree stores them contiguously
+    /// (a top-down build does). Queries that accept a whole subtree (a frustum containing it)
+    /// then copy a slice instead of walking every node below. `None` when not contiguous.
+    fn subtree_primitives(&self, _node: u32) -> Option<&[u32]> {
+        None
+    }
 }
