@@ -41,7 +41,7 @@ impl Default for AccelSettings {
             relative_fat_margin: 0.05,
             optimize_budget_micros: 500,
             rebuild_threshold: 1.3,
-            background_rebuild: false,
+            background_rebuild: true,
         }
     }
 }

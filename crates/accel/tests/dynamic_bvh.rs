@@ -323,7 +323,8 @@ fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
     assert_eq!(t.update(h, nudged), Ok(false));
     assert!(!t.needs_refit());
     assert_eq!(t.refit(), 0);
-    let moved = Aabb::new(b.min + 3.0, b.max + 3.0);
+    // A move that leaves the fat box but overlaps it is refit in the next batch.
+    let moved = Aabb::new(b.min + 0.6, b.max + 0.6);
     assert_eq!(t.update(h, moved), Ok(true));
     assert!(t.needs_refit());
     assert_eq!(
@@ -333,8 +334,14 @@ fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
     assert!(t.refit() > 0);
     t.validate().unwrap();
     assert!(t.fat_bounds(h).unwrap().contains_aabb(&moved));
+    // A jump clear of the fat box is reinserted at once: nothing is left to refit.
+    let jumped = Aabb::new(b.min + 30.0, b.max + 30.0);
+    assert_eq!(t.update(h, jumped), Ok(true));
+    assert!(!t.needs_refit());
+    t.validate().unwrap();
+    assert!(t.fat_bounds(h).unwrap().contains_aabb(&jumped));
     // A box that shrinks to a sliver of its fat box is refattened, so the tree tightens.
-    let tiny = Aabb::from_point(moved.center());
+    let tiny = Aabb::from_point(jumped.center());
     assert_eq!(t.update(h, tiny), Ok(true));
     t.refit();
     t.validate().unwrap();
@@ -458,11 +465,17 @@ fn optimizer_repairs_a_tree_that_refit_alone_lets_rot() {
     }
     optimised.rebuild();
     refit_only.rebuild();
-    for _ in 0..100 {
-        // 1% teleport each frame: the case that makes refit-only trees rot.
-        for _ in 0..100 {
-            let (a, b) = hs[rng.below(hs.len() as u32) as usize];
-            let bx = random_box(&mut rng, 100.0);
+    let mut boxes: Vec<Aabb> = (0..hs.len()).map(|i| optimised.tight_bounds(hs[i].0).unwrap()).collect();
+    for _ in 0..600 {
+        // 3% take a long stride each frame, always overlapping their old fat box (jumps
+        // clear of it are reinserted, not refit): the drift that makes refit-only trees rot.
+        for _ in 0..300 {
+            let k = rng.below(hs.len() as u32) as usize;
+            let (a, b) = hs[k];
+            let old = boxes[k];
+            let step = rng.vec3(-0.9, 0.9) * old.extent();
+            let bx = Aabb::new(old.min + step, old.max + step);
+            boxes[k] = bx;
             optimised.update(a, bx).unwrap();
             refit_only.update(b, bx).unwrap();
         }
@@ -475,8 +488,8 @@ fn optimizer_repairs_a_tree_that_refit_alone_lets_rot() {
     let good = optimised.quality().sah_cost / fresh;
     let bad = refit_only.quality().sah_cost / fresh;
     println!("SAH vs fresh build: optimised {good:.3}, refit only {bad:.3}");
-    assert!(bad > 2.0, "the refit-only tree should have rotted: {bad}");
-    assert!(good < bad * 0.6, "optimiser: {good} vs refit only {bad}");
+    assert!(bad > 1.3, "the refit-only tree should have rotted: {bad}");
+    assert!(good < bad * 0.85, "optimiser: {good} vs refit only {bad}");
 }
 
 #[test]
@@ -502,7 +515,7 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
     }
     let static_before = pair.static_tree().nodes().to_vec();
     for _ in 0..30 {
-        for _ in 0..200 {
+        for _ in 0..300 {
             let k = rng.below(hs.len() as u32) as usize;
             let b = random_box(&mut rng, 80.0);
             pair.dynamic_mut().update(hs[k], b).unwrap();

@@ -374,6 +374,15 @@ impl DynamicBvh {
         if !new_fat.is_finite() {
             return Err(DynamicBvhError::InvalidBounds);
         }
+        if !fat.intersects_aabb(&new_fat) {
+            // A jump clear of the old fat box (a teleport, a respawn): refitting would stretch
+            // every ancestor across both places and rot the tree for every later query, so
+            // the leaf is reinserted where the SAH wants it now (Box2D's `b2MoveProxy`).
+            self.detach(leaf);
+            self.set_aabb(leaf, new_fat);
+            self.attach(leaf);
+            return Ok(true);
+        }
         self.set_aabb(leaf, new_fat);
         let n = &mut self.arena.nodes[leaf as usize];
         if n.flags & FLAG_DIRTY == 0 {
