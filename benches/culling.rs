@@ -9,7 +9,7 @@ use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::{
     VisibilityClass, VisibilityPlugin, VisibilitySystems, check_visibility_cpu_culling,
 };
-use bevy::ecs::schedule::ExecutorKind;
+use bevy::ecs::schedule::SingleThreadedExecutor;
 use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
@@ -52,7 +52,7 @@ fn app(n: usize, ours: bool) -> App {
     .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
     .init_resource::<CullTimer>();
     app.edit_schedule(PostUpdate, |s| {
-        s.set_executor_kind(ExecutorKind::SingleThreaded);
+        s.set_executor(SingleThreadedExecutor::new());
     });
     if ours {
         app.add_plugins(AccelCullingPlugin);

@@ -62,7 +62,7 @@ fn bench(c: &mut Criterion) {
                     .step_by(10)
                 {
                     let mut t = app.world_mut().get_mut::<Transform>(e).unwrap();
-                    t.translation.y += if (frame + k as u64) % 2 == 0 {
+                    t.translation.y += if (frame + k as u64).is_multiple_of(2) {
                         0.3
                     } else {
                         -0.3

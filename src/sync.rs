@@ -110,6 +110,8 @@ type MovedQuery<'w, 's, StaticFilter> = Query<
 
 /// Inserts, moves and removes entities so the trees hold exactly the tracked entities with
 /// their current world boxes.
+// A system's parameters are its dependencies; bundling them would only hide them.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn sync_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,

@@ -50,6 +50,19 @@ type CandidateItem = (
     Has<VisibilityRange>,
 );
 
+/// Entities that can be seen but are not in the trees: no `Aabb` (Bevy never culls them), or
+/// kept out with `AccelIgnore`.
+type UntrackedQuery<'w, 's> = Query<
+    'w,
+    's,
+    Entity,
+    (
+        With<ViewVisibility>,
+        Without<NoCpuCulling>,
+        Or<(Without<Aabb>, With<AccelIgnore>)>,
+    ),
+>;
+
 /// The view frustum as the trees test it. Bevy culls against the near plane but never the far
 /// one, so the far half-space is replaced by one containing all space.
 fn tree_frustum(frustum: &Frustum) -> AccelFrustum {
@@ -66,14 +79,7 @@ pub(crate) fn cull_views_with_trees(
     ranges: Option<Res<VisibleEntityRanges>>,
     mut views: Query<ViewItem>,
     mut candidates: Query<CandidateItem, Without<NoCpuCulling>>,
-    untracked: Query<
-        Entity,
-        (
-            With<ViewVisibility>,
-            Without<NoCpuCulling>,
-            Or<(Without<Aabb>, With<AccelIgnore>)>,
-        ),
-    >,
+    untracked: UntrackedQuery,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();

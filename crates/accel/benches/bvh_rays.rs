@@ -90,6 +90,62 @@ fn ray_contenders<'a>(
         accel_contender("accel median", SplitStrategy::Median, tris, boxes, rays),
     ];
 
+    // The wide layouts over the same binned-16 tree (2-, 4- and 8-wide side by side).
+    let bvh = Bvh::build(boxes, &BuildConfig::default());
+    let prepared: std::rc::Rc<Vec<(Ray, WatertightRay)>> = std::rc::Rc::new(
+        rays.iter()
+            .map(|&(o, d)| {
+                let r = Ray::new(o, d);
+                (r, WatertightRay::new(&r))
+            })
+            .collect(),
+    );
+    let bvh4 = accel::bvh::wide::Bvh4::from_bvh(&bvh);
+    let p4 = prepared.clone();
+    c.push(RayContender {
+        name: "accel binned16 4-wide".into(),
+        bytes: bvh4.memory_bytes(),
+        trace: Box::new(move |i| {
+            let (ray, wt) = &p4[i];
+            bvh4.cast_ray(ray, |p, _| {
+                wt.intersect(&tris[p as usize], Backfaces::Include)
+                    .map(|h| h.t)
+            })
+            .map(|h| (h.primitive, h.t))
+        }),
+    });
+    let bvh8 = accel::bvh::wide::Bvh8::from_bvh(&bvh);
+    let p8 = prepared.clone();
+    c.push(RayContender {
+        name: "accel binned16 8-wide".into(),
+        bytes: bvh8.memory_bytes(),
+        trace: Box::new(move |i| {
+            let (ray, wt) = &p8[i];
+            bvh8.cast_ray(ray, |p, _| {
+                wt.intersect(&tris[p as usize], Backfaces::Include)
+                    .map(|h| h.t)
+            })
+            .map(|h| (h.primitive, h.t))
+        }),
+    });
+    // The mesh BVH: 8-wide with triangles copied into leaf order (what picking and the
+    // preview use).
+    let vertices: Vec<glam::Vec3> = tris
+        .iter()
+        .flat_map(|t| t.vertices.map(glam::Vec3::from))
+        .collect();
+    let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+    let mesh = accel::mesh::MeshBvh::new(&vertices, &indices).expect("a triangle list");
+    let pm = prepared.clone();
+    c.push(RayContender {
+        name: "accel MeshBvh (8-wide, leaf-ordered)".into(),
+        bytes: mesh.memory_bytes(),
+        trace: Box::new(move |i| {
+            mesh.cast_ray(&pm[i].0, Backfaces::Include)
+                .map(|h| (h.triangle, h.t))
+        }),
+    });
+
     // Ours with obvhs' triangle test, to separate the tree from the triangle test.
     let bvh = Bvh::build(boxes, &BuildConfig::default());
     let ot: Vec<obvhs::triangle::Triangle> = tris.iter().map(peers::to_obvhs_tri).collect();

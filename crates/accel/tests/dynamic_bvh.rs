@@ -465,7 +465,9 @@ fn optimizer_repairs_a_tree_that_refit_alone_lets_rot() {
     }
     optimised.rebuild();
     refit_only.rebuild();
-    let mut boxes: Vec<Aabb> = (0..hs.len()).map(|i| optimised.tight_bounds(hs[i].0).unwrap()).collect();
+    let mut boxes: Vec<Aabb> = (0..hs.len())
+        .map(|i| optimised.tight_bounds(hs[i].0).unwrap())
+        .collect();
     for _ in 0..600 {
         // 3% take a long stride each frame, always overlapping their old fat box (jumps
         // clear of it are reinserted, not refit): the drift that makes refit-only trees rot.
