@@ -12,7 +12,7 @@
 //! use bevy::camera::primitives::Aabb;
 //! use bevy_accel::prelude::*;
 //! use bevy_accel::accel::{Ray, SpatialQuery};
-//! use glam::Vec3A;
+//! use bevy::math::Vec3A;
 //!
 //! let mut app = App::new();
 //! app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin::default()));
@@ -26,7 +26,7 @@
 //! let ray = Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
 //! let hit = trees.query().cast_ray(&ray, |slot, r| r.intersect_aabb(&trees.world_bounds(slot))).unwrap();
 //! assert_eq!(trees.entity(hit.primitive), Some(cube));
-//! assert_eq!(hit.t, 4.5);
+//! assert!((hit.t - 4.5).abs() < 1e-5);
 //! ```
 //!
 //! ## What is tracked

@@ -43,7 +43,9 @@ pub struct RayHit {
 /// let ray = Ray::new(Vec3A::new(-1.0, 0.5, 0.5), Vec3A::X);
 /// // The callback runs the exact test; here the primitives are the boxes themselves.
 /// let hit = bvh.cast_ray(&ray, |i, ray| ray.intersect_aabb(&boxes[i as usize])).unwrap();
-/// assert_eq!((hit.primitive, hit.t), (0, 1.0));
+/// // The entry distance is conservative: a few ulps short of the exact 1.0.
+/// assert_eq!(hit.primitive, 0);
+/// assert!((hit.t - 1.0).abs() < 1e-5);
 /// ```
 pub trait SpatialQuery {
     /// The closest hit: `hit(primitive, ray)` returns the exact hit parameter, if any, within
