@@ -19,6 +19,8 @@ pub use ray_cast::AccelRayCast;
 use crate::AccelTrees;
 use bevy::asset::AssetEventSystems;
 use bevy::picking::PickingSystems;
+use bevy::picking::backend::PointerHits;
+use bevy::picking::backend::ray::RayMap;
 use bevy::picking::mesh_picking::ray_cast::RayCastVisibility;
 use bevy::prelude::*;
 
@@ -77,8 +79,12 @@ impl Plugin for AccelPickingPlugin {
                 PreUpdate,
                 backend::update_hits
                     .in_set(PickingSystems::Backend)
+                    // Without Bevy's picking plugins (or AccelPlugin) there is nothing to read
+                    // or write: stay idle instead of failing parameter validation.
                     .run_if(resource_exists::<AccelTrees>)
-                    .run_if(resource_exists::<Assets<Mesh>>),
+                    .run_if(resource_exists::<Assets<Mesh>>)
+                    .run_if(resource_exists::<RayMap>)
+                    .run_if(resource_exists::<Messages<PointerHits>>),
             );
     }
 
