@@ -14,7 +14,10 @@ use std::hint::black_box;
 struct Rng(u64);
 impl Rng {
     fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
     fn vec3(&mut self, s: f32) -> Vec3 {
@@ -41,7 +44,12 @@ fn world(n: usize) -> (App, Vec<Ray3d>) {
         let mut assets = app.world_mut().resource_mut::<Assets<Mesh>>();
         [
             assets.add(Sphere::new(1.0).mesh().uv(32, 17)),
-            assets.add(Torus::new(0.5, 1.0).mesh().minor_resolution(16).major_resolution(32)),
+            assets.add(
+                Torus::new(0.5, 1.0)
+                    .mesh()
+                    .minor_resolution(16)
+                    .major_resolution(32),
+            ),
         ]
     };
     let half = (n as f32 * 64.0).cbrt() / 2.0;
@@ -50,7 +58,11 @@ fn world(n: usize) -> (App, Vec<Ray3d>) {
         .map(|i| {
             let t = Transform::from_translation(rng.vec3(half))
                 .with_rotation(Quat::from_rotation_y(rng.next() * 6.0))
-                .with_scale(Vec3::new(1.0 + rng.next(), 1.0 + rng.next(), 1.0 + rng.next()));
+                .with_scale(Vec3::new(
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                ));
             (t, Mesh3d(meshes[i % 2].clone()))
         })
         .collect();
@@ -76,7 +88,7 @@ fn picking(c: &mut Criterion) {
         let world = app.world();
         let mut group = c.benchmark_group(format!("picking/{n}"));
         group.sample_size(10);
-        let mut ray_cast = ours.get(world);
+        let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
         let mut i = 0;
         group.bench_function("bevy_accel AccelRayCast", |b| {
             b.iter(|| {
@@ -84,7 +96,7 @@ fn picking(c: &mut Criterion) {
                 black_box(ray_cast.cast_ray(rays[i], &settings).len())
             })
         });
-        let mut ray_cast = bevy.get(world);
+        let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
         group.bench_function("bevy MeshRayCast", |b| {
             b.iter(|| {
                 i = (i + 1) % rays.len();

@@ -236,8 +236,11 @@ fn equivalence(app: &mut App, rays: usize, seed: u64) -> Tally {
                   blockers: Query<(), With<Blocker>>| {
                 let mut rng = Rng(seed);
                 let mut tally = Tally::default();
-                let on_layer_0 =
-                    |e| layers.get(e).map_or(true, |l| l.intersects(&RenderLayers::default()));
+                let on_layer_0 = |e| {
+                    layers
+                        .get(e)
+                        .map_or(true, |l| l.intersects(&RenderLayers::default()))
+                };
                 let blocks = |e| blockers.contains(e);
                 for i in 0..rays {
                     let ray = random_ray(&mut rng);
@@ -559,7 +562,8 @@ fn edited_meshes_are_rebuilt_and_unreadable_ones_hit_their_bounds() {
         app.world_mut()
             .run_system_once(move |mut rc: AccelRayCast| {
                 let ray = Ray3d::new(Vec3::new(x, 0.2, 5.0), Dir3::NEG_Z);
-                let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
+                let settings =
+                    MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
                 rc.cast_ray(ray, &settings)
                     .iter()
                     .map(|(e, h)| (*e, h.distance, h.triangle_index, h.normal))
