@@ -22,11 +22,12 @@ pub struct AccelTracked;
 
 /// Marks an entity that never moves: it goes in the static tree.
 ///
-/// The static tree is built once from all static entities and rebuilt only when one is added,
-/// removed or moved; it is never refit. Moving a static entity is allowed but costs a rebuild
-/// of the whole static tree: things that move often belong in the dynamic tree. With
-/// [`AccelSettings::watch_static_motion`](crate::AccelSettings::watch_static_motion) off,
-/// static entities are not watched for motion at all (a moved one keeps its old box).
+/// The static tree is built once from all static entities and rebuilt only when one is added
+/// or removed; it is never refit, and static entities are not watched for motion, which is
+/// what makes a frame of a static world cost nothing. To move one, re-insert the marker after
+/// moving it (or remove it: the entity then joins the dynamic tree), or turn on
+/// [`AccelSettings::watch_static_motion`](crate::AccelSettings::watch_static_motion), which
+/// rebuilds the static tree whenever a static entity moves.
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Default)]
 pub struct AccelStatic;

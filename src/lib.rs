@@ -44,6 +44,8 @@
 mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
+#[cfg(feature = "picking")]
+pub mod picking;
 mod settings;
 mod stats;
 mod sync;
@@ -53,6 +55,8 @@ pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::AccelCullingPlugin;
+#[cfg(feature = "picking")]
+pub use picking::{AccelPickingPlugin, AccelRayCast};
 pub use settings::AccelSettings;
 pub use stats::AccelStats;
 pub use trees::{AccelTrees, TreeSlot};
@@ -67,6 +71,8 @@ pub mod prelude {
         AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
         AccelTracked, AccelTrees,
     };
+    #[cfg(feature = "picking")]
+    pub use crate::{AccelPickingPlugin, AccelRayCast};
 }
 
 /// The plugin's system sets, in `PostUpdate`, in this order, after transform propagation and

@@ -15,8 +15,10 @@ pub struct AccelSettings {
     /// with an `Aabb` and a `GlobalTransform`.
     pub require_marker: bool,
     /// Watch [`AccelStatic`](crate::AccelStatic) entities for motion too, rebuilding the
-    /// static tree when one moves. Turning it off saves a change-detection scan over the
-    /// static entities each frame; a static entity that moves then keeps its old box.
+    /// static tree when one moves. Off by default: the marker promises the entity does not
+    /// move, and watching costs a change-detection scan over every static entity each frame
+    /// (about 3 ns each: 0.3 ms at 100k). A static entity that moves while this is off keeps
+    /// its old box until the marker is removed or inserted again.
     pub watch_static_motion: bool,
     /// Absolute growth of each side of a dynamic leaf, in world units: motion within it costs
     /// nothing.
@@ -36,7 +38,7 @@ impl Default for AccelSettings {
         Self {
             enabled: true,
             require_marker: false,
-            watch_static_motion: true,
+            watch_static_motion: false,
             fat_margin: 0.1,
             relative_fat_margin: 0.05,
             optimize_budget_micros: 500,

@@ -47,10 +47,11 @@ fn queue_membership_check<E: EntityEvent>(
     pending.0.insert(event.event_target());
 }
 
-/// Registers the observers that feed [`PendingMembership`]: one for additions and one for
+/// Registers the observers that feed [`PendingMembership`]: one for insertions (first or
+/// repeated: re-inserting `AccelStatic` re-reads a static box) and one for
 /// removals (a despawn removes every component, so it is caught too).
 pub(crate) fn add_membership_observers(app: &mut App) {
-    app.add_observer(queue_membership_check::<Add>)
+    app.add_observer(queue_membership_check::<Insert>)
         .add_observer(queue_membership_check::<Remove>);
 }
 

@@ -35,6 +35,17 @@ fn app() -> App {
     app
 }
 
+/// The scenario below moves static entities too, so it asks the plugin to watch them.
+fn app_watching_statics() -> App {
+    let mut app = App::new();
+    let settings = AccelSettings {
+        watch_static_motion: true,
+        ..Default::default()
+    };
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    app
+}
+
 fn unit_aabb() -> Aabb {
     Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
 }
@@ -104,7 +115,7 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 
 #[test]
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
-    let mut app = app();
+    let mut app = app_watching_statics();
     let mut rng = Rng(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
@@ -274,4 +285,35 @@ fn rays_find_entities_through_both_trees() {
         .map(|h| trees.entity(h.primitive).unwrap())
         .collect();
     assert_eq!(order, vec![near, far]);
+}
+
+#[test]
+fn unwatched_static_entities_keep_their_box_until_remarked() {
+    let mut app = app();
+    let e = app
+        .world_mut()
+        .spawn((Transform::default(), unit_aabb(), AccelStatic))
+        .id();
+    app.update();
+    let before = app
+        .world()
+        .resource::<AccelTrees>()
+        .location(e)
+        .map(|(s, _)| s)
+        .unwrap();
+    let box_before = app.world().resource::<AccelTrees>().world_bounds(before);
+    app.world_mut()
+        .get_mut::<Transform>(e)
+        .unwrap()
+        .translation
+        .x = 10.0;
+    app.update();
+    assert_eq!(
+        app.world().resource::<AccelTrees>().world_bounds(before),
+        box_before
+    );
+    // Re-inserting the marker re-reads the box.
+    app.world_mut().entity_mut(e).insert(AccelStatic);
+    app.update();
+    check_consistency(&mut app);
 }

@@ -1,0 +1,111 @@
+//! Per-ray cost of `AccelRayCast` against Bevy's `MeshRayCast` on the same worlds: 10^4 and
+//! 10^5 entities of about 1k-triangle meshes, random rays through the scene.
+//!
+//! `cargo bench -p bevy_accel --bench picking -- --warm-up-time 1 --measurement-time 3`
+
+use bevy::camera::visibility::VisibilityPlugin;
+use bevy::ecs::system::SystemState;
+use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
+use bevy::prelude::*;
+use bevy_accel::prelude::*;
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * 2.0 * s
+    }
+}
+
+/// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
+/// of 1 entity per 64 cubic units, and rays aimed through it.
+fn world(n: usize) -> (App, Vec<Ray3d>) {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        TransformPlugin,
+        VisibilityPlugin,
+        AccelPlugin::default(),
+        AccelPickingPlugin,
+    ))
+    .init_asset::<Mesh>()
+    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+    app.finish();
+    let meshes = {
+        let mut assets = app.world_mut().resource_mut::<Assets<Mesh>>();
+        [
+            assets.add(Sphere::new(1.0).mesh().uv(32, 17)),
+            assets.add(
+                Torus::new(0.5, 1.0)
+                    .mesh()
+                    .minor_resolution(16)
+                    .major_resolution(32),
+            ),
+        ]
+    };
+    let half = (n as f32 * 64.0).cbrt() / 2.0;
+    let mut rng = Rng(7);
+    let batch: Vec<_> = (0..n)
+        .map(|i| {
+            let t = Transform::from_translation(rng.vec3(half))
+                .with_rotation(Quat::from_rotation_y(rng.next() * 6.0))
+                .with_scale(Vec3::new(
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                ));
+            (t, Mesh3d(meshes[i % 2].clone()))
+        })
+        .collect();
+    app.world_mut().spawn_batch(batch);
+    app.update();
+    app.update();
+    let rays = (0..1024)
+        .map(|_| {
+            let origin = rng.vec3(half * 1.2);
+            let target = rng.vec3(half * 0.5);
+            Ray3d::new(origin, Dir3::new(target - origin).unwrap_or(Dir3::X))
+        })
+        .collect();
+    (app, rays)
+}
+
+fn picking(c: &mut Criterion) {
+    let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
+    for n in [10_000, 100_000] {
+        let (mut app, rays) = world(n);
+        let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
+        let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
+        let world = app.world();
+        let mut group = c.benchmark_group(format!("picking/{n}"));
+        group.sample_size(10);
+        let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
+        let mut i = 0;
+        group.bench_function("bevy_accel AccelRayCast", |b| {
+            b.iter(|| {
+                i = (i + 1) % rays.len();
+                black_box(ray_cast.cast_ray(rays[i], &settings).len())
+            })
+        });
+        let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
+        group.bench_function("bevy MeshRayCast", |b| {
+            b.iter(|| {
+                i = (i + 1) % rays.len();
+                black_box(ray_cast.cast_ray(rays[i], &settings).len())
+            })
+        });
+        group.finish();
+    }
+}
+
+criterion_group!(benches, picking);
+criterion_main!(benches);

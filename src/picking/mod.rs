@@ -1,0 +1,97 @@
+//! Picking on the trees: a `bevy_picking` backend ([`AccelPickingPlugin`]) and a ray-cast
+//! system parameter ([`AccelRayCast`]) that answer what Bevy's `MeshPickingPlugin` and
+//! `MeshRayCast` answer, without testing every entity and every triangle per ray.
+//!
+//! Bevy's mesh ray cast inverts every entity's transform to test its box, then scans every
+//! triangle of each candidate (bevy issue 15817 and the notes in this repository). Here the
+//! [`AccelTrees`](crate::AccelTrees) give the candidates in distance order, nearest blocking
+//! hits cut the search, and each mesh asset has a triangle BVH built the first time a ray
+//! reaches it ([`AccelMeshCache`]).
+
+mod backend;
+mod mesh_cache;
+mod ray_cast;
+
+pub use backend::{AccelHitExtra, update_hits};
+pub use mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
+pub use ray_cast::AccelRayCast;
+
+use crate::AccelTrees;
+use bevy::asset::AssetEventSystems;
+use bevy::picking::PickingSystems;
+use bevy::picking::backend::PointerHits;
+use bevy::picking::backend::ray::RayMap;
+use bevy::picking::mesh_picking::ray_cast::RayCastVisibility;
+use bevy::prelude::*;
+
+/// Marks the cameras the backend casts from when [`AccelPickingSettings::require_markers`]
+/// is set (ignored otherwise).
+#[derive(Debug, Clone, Copy, Default, Component, Reflect)]
+#[reflect(Debug, Default, Component)]
+pub struct AccelPickingCamera;
+
+/// Runtime settings of the [`AccelPickingPlugin`] backend (those of Bevy's
+/// `MeshPickingSettings`).
+#[derive(Resource, Clone, Reflect)]
+#[reflect(Resource, Default)]
+pub struct AccelPickingSettings {
+    /// Only cameras with [`AccelPickingCamera`] cast, and only entities with `Pickable` are
+    /// hit. `false` by default.
+    pub require_markers: bool,
+    /// Which entities rays see: by default only those visible in a view
+    /// ([`RayCastVisibility::VisibleInView`]), as Bevy's backend.
+    pub ray_cast_visibility: RayCastVisibility,
+}
+
+impl Default for AccelPickingSettings {
+    fn default() -> Self {
+        Self {
+            require_markers: false,
+            ray_cast_visibility: RayCastVisibility::VisibleInView,
+        }
+    }
+}
+
+/// The picking backend on the trees, in place of Bevy's `MeshPickingPlugin` (add one or the
+/// other, not both, or every mesh is reported twice). Reads `RayMap`, writes `PointerHits` in
+/// `PickingSystems::Backend`, honouring `Pickable`, `RenderLayers`, camera order,
+/// [`AccelPickingSettings`] and `RayCastBackfaces`/`SimplifiedMesh`. Each `HitData` carries
+/// the world position, the normal and an [`AccelHitExtra`] (triangle, barycentrics, uv).
+///
+/// Also sets up [`AccelRayCast`] (its mesh cache). Requires [`AccelPlugin`](crate::AccelPlugin)
+/// and Bevy's `PickingPlugin` (in `DefaultPlugins`) for the backend.
+#[derive(Default)]
+pub struct AccelPickingPlugin;
+
+impl Plugin for AccelPickingPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<AccelPickingSettings>()
+            .init_resource::<AccelMeshCache>()
+            .register_type::<AccelPickingSettings>()
+            .register_type::<AccelPickingCamera>()
+            .add_systems(
+                PostUpdate,
+                mesh_cache::invalidate_changed_meshes
+                    .after(AssetEventSystems)
+                    .run_if(resource_exists::<Assets<Mesh>>),
+            )
+            .add_systems(
+                PreUpdate,
+                backend::update_hits
+                    .in_set(PickingSystems::Backend)
+                    // Without Bevy's picking plugins (or AccelPlugin) there is nothing to read
+                    // or write: stay idle instead of failing parameter validation.
+                    .run_if(resource_exists::<AccelTrees>)
+                    .run_if(resource_exists::<Assets<Mesh>>)
+                    .run_if(resource_exists::<RayMap>)
+                    .run_if(resource_exists::<Messages<PointerHits>>),
+            );
+    }
+
+    fn finish(&self, app: &mut App) {
+        // Ray casts read the trees; without them the backend stays idle, so say why once.
+        if !app.world().contains_resource::<AccelTrees>() {
+            warn!("AccelPickingPlugin needs AccelPlugin: add it, or nothing will be picked");
+        }
+    }
+}

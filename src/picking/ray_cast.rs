@@ -1,0 +1,421 @@
+//! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
+
+use super::mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
+use crate::AccelTrees;
+use accel::{
+    Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
+};
+use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
+use bevy::ecs::system::SystemParam;
+use bevy::ecs::system::lifetimeless::Read;
+use bevy::math::bounding::{Aabb3d, BoundingSphere};
+use bevy::math::{Affine3A, Ray3d, Vec3A};
+use bevy::mesh::{Mesh2d, Mesh3d};
+use bevy::picking::mesh_picking::ray_cast::{
+    MeshRayCastSettings, RayCastBackfaces, RayCastVisibility, RayMeshHit, SimplifiedMesh,
+};
+use bevy::prelude::*;
+use core::ops::ControlFlow;
+
+/// The entities Bevy's `MeshRayCast` can hit: those with a mesh.
+type MeshFilter = Or<(With<Mesh3d>, With<Mesh2d>, With<SimplifiedMesh>)>;
+
+/// What a mesh ray cast reads of a candidate (the same components as `MeshRayCast`).
+type MeshTargetData = (
+    Read<InheritedVisibility>,
+    Read<ViewVisibility>,
+    Read<Aabb>,
+    Read<GlobalTransform>,
+    Option<Read<Mesh2d>>,
+    Option<Read<Mesh3d>>,
+    Option<Read<SimplifiedMesh>>,
+    Has<RayCastBackfaces>,
+);
+
+/// What a bounds-only ray cast reads: any tracked entity, visible unless its visibility
+/// components say otherwise.
+type BoundsTargetData = (
+    Option<Read<InheritedVisibility>>,
+    Option<Read<ViewVisibility>>,
+    Read<Aabb>,
+    Read<GlobalTransform>,
+);
+
+/// A hit found during traversal, before the blocking cut and the sort.
+struct PendingHit {
+    entity: Entity,
+    /// Entry distance into the entity's box: orders equal-distance hits as Bevy's AABB-sorted
+    /// candidate list does.
+    entry: f32,
+    hit: RayMeshHit,
+}
+
+/// What a ray is tested against.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Target {
+    /// Mesh triangles (entities with `Mesh3d`, `Mesh2d` or `SimplifiedMesh`).
+    Meshes,
+    /// Every tracked entity's oriented `Aabb`.
+    Bounds,
+}
+
+/// Casts rays and overlap queries into the world through the [`AccelTrees`]: a drop-in for
+/// Bevy's `MeshRayCast` (same `cast_ray` signature, settings and results), so switching is a
+/// change of type.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy::picking::mesh_picking::ray_cast::MeshRayCastSettings;
+/// # use bevy_accel::prelude::*;
+/// fn pick(mut ray_cast: AccelRayCast) {
+///     let ray = Ray3d::new(Vec3::ZERO, Dir3::NEG_Z);
+///     if let Some((entity, hit)) = ray_cast.cast_ray(ray, &MeshRayCastSettings::default()).first() {
+///         info!("{entity} at {}", hit.distance);
+///     }
+/// }
+/// ```
+///
+/// Semantics are `MeshRayCast`'s: the hits are every hit of an entity that passes the
+/// visibility setting and the filter, no farther than the nearest hit of an entity for which
+/// `early_exit_test` is true, nearest first. Candidates come from the trees, so only entities
+/// the trees hold are hit (not those with [`AccelIgnore`](crate::AccelIgnore), nor, with
+/// [`AccelSettings::require_marker`](crate::AccelSettings), those without
+/// [`AccelTracked`](crate::AccelTracked)). Triangles are tested with the watertight test, in
+/// the mesh's space, through a BVH per mesh asset cached in [`AccelMeshCache`]. Meshes that
+/// cannot be read (not a triangle list, render-world only) are hit on their `Aabb` instead of
+/// being skipped, with one warning per asset.
+///
+/// Requires [`AccelPlugin`](crate::AccelPlugin) and
+/// [`AccelPickingPlugin`](super::AccelPickingPlugin).
+#[derive(SystemParam)]
+pub struct AccelRayCast<'w, 's> {
+    trees: Res<'w, AccelTrees>,
+    meshes: Res<'w, Assets<Mesh>>,
+    cache: Res<'w, AccelMeshCache>,
+    mesh_targets: Query<'w, 's, MeshTargetData, MeshFilter>,
+    bounds_targets: Query<'w, 's, BoundsTargetData>,
+    hits: Local<'s, Vec<PendingHit>>,
+    output: Local<'s, Vec<(Entity, RayMeshHit)>>,
+    batch_output: Local<'s, Vec<(usize, Entity, RayMeshHit)>>,
+    entities: Local<'s, Vec<Entity>>,
+}
+
+impl<'w, 's> AccelRayCast<'w, 's> {
+    /// Casts the `ray` against meshes and returns the hits, nearest first (as
+    /// `MeshRayCast::cast_ray`).
+    pub fn cast_ray(
+        &mut self,
+        ray: Ray3d,
+        settings: &MeshRayCastSettings,
+    ) -> &[(Entity, RayMeshHit)] {
+        self.cast_ray_within(ray, f32::INFINITY, settings)
+    }
+
+    /// [`AccelRayCast::cast_ray`] limited to hits at most `max_distance` from the origin; the
+    /// trees skip everything farther, so short rays are cheap in large worlds.
+    pub fn cast_ray_within(
+        &mut self,
+        ray: Ray3d,
+        max_distance: f32,
+        settings: &MeshRayCastSettings,
+    ) -> &[(Entity, RayMeshHit)] {
+        self.collect(ray, max_distance, Target::Meshes, settings);
+        self.output.clear();
+        self.output
+            .extend(self.hits.drain(..).map(|h| (h.entity, h.hit)));
+        &self.output
+    }
+
+    /// Casts the `ray` against the oriented `Aabb` of every tracked entity, mesh or not.
+    /// Hits carry a point, the box face's normal and the distance; no triangle data. The
+    /// settings apply as in [`AccelRayCast::cast_ray`]; an entity without visibility
+    /// components counts as visible.
+    pub fn cast_ray_bounds(
+        &mut self,
+        ray: Ray3d,
+        max_distance: f32,
+        settings: &MeshRayCastSettings,
+    ) -> &[(Entity, RayMeshHit)] {
+        self.collect(ray, max_distance, Target::Bounds, settings);
+        self.output.clear();
+        self.output
+            .extend(self.hits.drain(..).map(|h| (h.entity, h.hit)));
+        &self.output
+    }
+
+    /// Casts many rays against meshes: `(ray index, entity, hit)`, by ray, each ray's hits
+    /// nearest first. Buffers are shared across the batch.
+    pub fn cast_rays(
+        &mut self,
+        rays: &[Ray3d],
+        max_distance: f32,
+        settings: &MeshRayCastSettings,
+    ) -> &[(usize, Entity, RayMeshHit)] {
+        self.batch_output.clear();
+        for (i, &ray) in rays.iter().enumerate() {
+            self.collect(ray, max_distance, Target::Meshes, settings);
+            self.batch_output
+                .extend(self.hits.drain(..).map(|h| (i, h.entity, h.hit)));
+        }
+        &self.batch_output
+    }
+
+    /// Tracked entities whose world box contains `point`, sorted.
+    pub fn overlap_point(&mut self, point: Vec3) -> &[Entity] {
+        let p = Vec3A::from(point);
+        self.overlap(
+            |q, visit| q.for_each_containing_point(p, visit),
+            |b| b.contains_point(p),
+        )
+    }
+
+    /// Tracked entities whose world box overlaps `aabb`, sorted.
+    pub fn overlap_aabb(&mut self, aabb: Aabb3d) -> &[Entity] {
+        let query = AccelAabb::new(aabb.min, aabb.max);
+        self.overlap(
+            |q, visit| q.for_each_overlapping_aabb(&query, visit),
+            |b| b.intersects_aabb(&query),
+        )
+    }
+
+    /// Tracked entities whose world box overlaps `sphere`, sorted.
+    pub fn overlap_sphere(&mut self, sphere: BoundingSphere) -> &[Entity] {
+        let query = accel::Sphere::new(sphere.center, sphere.radius());
+        let r2 = sphere.radius() * sphere.radius();
+        self.overlap(
+            |q, visit| q.for_each_overlapping_sphere(&query, visit),
+            |b| b.distance_squared_to_point(sphere.center) <= r2,
+        )
+    }
+
+    /// Tracked entities whose world box is not outside `frustum` (all six planes count,
+    /// the far one included), sorted.
+    pub fn overlap_frustum(&mut self, frustum: &Frustum) -> &[Entity] {
+        let query = AccelFrustum::from_planes(frustum.half_spaces.map(|h| h.normal_d()));
+        let trees = &*self.trees;
+        self.entities.clear();
+        trees
+            .query()
+            .for_each_in_frustum(&query, |slot, containment| {
+                // `Inside` means the (fattened) tree box is inside, so the exact box is too.
+                if (containment == Containment::Inside
+                    || query.intersects_aabb(&trees.world_bounds(slot)))
+                    && let Some(entity) = trees.entity(slot)
+                {
+                    self.entities.push(entity);
+                }
+            });
+        self.entities.sort_unstable();
+        &self.entities
+    }
+
+    /// The trees the queries run on.
+    pub fn trees(&self) -> &AccelTrees {
+        &self.trees
+    }
+
+    /// Runs an overlap traversal and keeps the candidates whose exact world box passes.
+    fn overlap(
+        &mut self,
+        traverse: impl FnOnce(
+            &accel::dynamic::StaticDynamicPair,
+            &mut dyn FnMut(u32) -> ControlFlow<()>,
+        ),
+        exact: impl Fn(&AccelAabb) -> bool,
+    ) -> &[Entity] {
+        let trees = &*self.trees;
+        let entities = &mut *self.entities;
+        entities.clear();
+        traverse(trees.query(), &mut |slot| {
+            if exact(&trees.world_bounds(slot))
+                && let Some(entity) = trees.entity(slot)
+            {
+                entities.push(entity);
+            }
+            ControlFlow::Continue(())
+        });
+        entities.sort_unstable();
+        entities
+    }
+
+    /// Fills `hits` with the ray's hits, cut at the nearest blocking hit and sorted.
+    fn collect(
+        &mut self,
+        ray: Ray3d,
+        max_distance: f32,
+        target: Target,
+        settings: &MeshRayCastSettings,
+    ) {
+        let Self {
+            trees,
+            meshes,
+            cache,
+            mesh_targets,
+            bounds_targets,
+            hits,
+            ..
+        } = self;
+        hits.clear();
+        // A NaN or negative `max_distance` gives an empty range: the ray hits nothing.
+        let world_ray = Ray::with_range(ray.origin, *ray.direction, 0.0, max_distance);
+        // The traversal's range shrinks only at blocking hits (the callback returns their
+        // distance); other hits are kept without shrinking it, as Bevy keeps collecting past
+        // hits whose entity does not pass `early_exit_test`.
+        let blocking = trees.query().cast_ray(&world_ray, |slot, r| {
+            let entity = trees.entity(slot)?;
+            let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
+            let hit = match target {
+                Target::Meshes => {
+                    let (inherited, view, aabb, transform, mesh2d, mesh3d, simplified, both) =
+                        mesh_targets.get(entity).ok()?;
+                    if !visible(settings.visibility, Some(inherited), Some(view))
+                        || !(settings.filter)(entity)
+                    {
+                        return None;
+                    }
+                    let handle = simplified
+                        .map(|m| &m.0)
+                        .or(mesh3d.map(|m| &m.0))
+                        .or(mesh2d.map(|m| &m.0))?;
+                    // Bevy never culls the back faces of 2d meshes.
+                    let backfaces = if both || mesh2d.is_some() {
+                        Backfaces::Include
+                    } else {
+                        Backfaces::Cull
+                    };
+                    let (affine, local, local_box) = local_ray(r, transform, aabb)?;
+                    // Bevy only tests meshes whose oriented box the ray meets.
+                    local.intersect_aabb(&local_box)?;
+                    match cache.get_or_build(handle.id(), meshes)? {
+                        MeshShape::Triangles(mesh) => {
+                            triangle_hit(&mesh, &affine, &local, backfaces)?
+                        }
+                        MeshShape::Bounds => box_hit(&affine, &local, &local_box)?,
+                    }
+                }
+                Target::Bounds => {
+                    let (inherited, view, aabb, transform) = bounds_targets.get(entity).ok()?;
+                    if !visible(settings.visibility, inherited, view) || !(settings.filter)(entity)
+                    {
+                        return None;
+                    }
+                    let (affine, local, local_box) = local_ray(r, transform, aabb)?;
+                    box_hit(&affine, &local, &local_box)?
+                }
+            };
+            let distance = hit.distance;
+            hits.push(PendingHit { entity, entry, hit });
+            (settings.early_exit_test)(entity).then_some(distance)
+        });
+        let cut = blocking.map_or(f32::INFINITY, |b| b.t);
+        hits.retain(|h| h.hit.distance <= cut);
+        hits.sort_by(|a, b| {
+            a.hit
+                .distance
+                .total_cmp(&b.hit.distance)
+                .then(a.entry.total_cmp(&b.entry))
+        });
+    }
+}
+
+/// Whether an entity passes the visibility setting (missing components count as visible).
+fn visible(
+    mode: RayCastVisibility,
+    inherited: Option<&InheritedVisibility>,
+    view: Option<&ViewVisibility>,
+) -> bool {
+    match mode {
+        RayCastVisibility::Any => true,
+        RayCastVisibility::Visible => inherited.is_none_or(|v| v.get()),
+        RayCastVisibility::VisibleInView => view.is_none_or(|v| v.get()),
+    }
+}
+
+/// The world ray in the entity's space, with its local box. The direction is transformed but
+/// not renormalised, so local `t` is world distance (the world direction is unit length).
+/// `None` for a singular transform, which Bevy cannot ray cast either.
+fn local_ray(
+    world: &Ray,
+    transform: &GlobalTransform,
+    aabb: &Aabb,
+) -> Option<(Affine3A, Ray, AccelAabb)> {
+    let affine = transform.affine();
+    if affine.matrix3.determinant() == 0.0 {
+        return None;
+    }
+    let local = world.transformed(&affine.inverse());
+    let local_box = AccelAabb::from_center_half_extents(aabb.center, aabb.half_extents);
+    Some((affine, local, local_box))
+}
+
+/// The nearest triangle hit, in Bevy's conventions: world point, normal in world space but
+/// not renormalised (the interpolated vertex normal, or the unit geometric normal when the
+/// mesh has none, transformed as a vector), barycentrics `(w, u, v)` of the index-order
+/// corners, world triangle.
+fn triangle_hit(
+    mesh: &CachedMesh,
+    affine: &Affine3A,
+    local: &Ray,
+    backfaces: Backfaces,
+) -> Option<RayMeshHit> {
+    let hit = mesh.bvh.cast_ray(local, backfaces)?;
+    let [ia, ib, ic] = mesh.triangle_indices(hit.triangle).map(|i| i as usize);
+    let [w, u, v] = hit.barycentrics;
+    let normal = mesh
+        .normals
+        .as_ref()
+        .and_then(|n| Some(*n.get(ib)? * u + *n.get(ic)? * v + *n.get(ia)? * w))
+        .unwrap_or(Vec3::from(hit.geometric_normal));
+    let uv = mesh
+        .uvs
+        .as_ref()
+        .and_then(|uv| Some(*uv.get(ia)? * w + *uv.get(ib)? * u + *uv.get(ic)? * v));
+    let corners = [ia, ib, ic].map(|i| affine.transform_point3(mesh.positions[i]));
+    Some(RayMeshHit {
+        point: affine.transform_point3(local.at(hit.t).into()),
+        normal: affine.transform_vector3(normal),
+        barycentric_coords: Vec3::new(w, u, v),
+        distance: hit.t,
+        triangle: Some(corners),
+        uv,
+        triangle_index: Some(hit.triangle as usize),
+    })
+}
+
+/// The entry hit on a local box (distance 0 from inside it), with the entered face's normal
+/// (the reversed ray direction from inside), in world space.
+fn box_hit(affine: &Affine3A, local: &Ray, local_box: &AccelAabb) -> Option<RayMeshHit> {
+    let (near, far) = local.slab_interval(local_box.min, local_box.max);
+    if near > far {
+        return None;
+    }
+    let negative = local.inv_direction.cmplt(Vec3A::ZERO);
+    let entry_plane = Vec3A::select(negative, local_box.max, local_box.min);
+    let entry = (entry_plane - local.origin) * local.inv_direction;
+    // NaN (an axis-parallel ray on a slab plane) never names the entered face.
+    let entry = Vec3A::select(entry.is_nan_mask(), Vec3A::NEG_INFINITY, entry);
+    let axis = if entry.x >= entry.y && entry.x >= entry.z {
+        0
+    } else if entry.y >= entry.z {
+        1
+    } else {
+        2
+    };
+    let local_normal = if entry[axis] > 0.0 {
+        let mut n = Vec3::ZERO;
+        n[axis] = -local.direction[axis].signum();
+        n
+    } else {
+        -Vec3::from(local.direction).normalize_or_zero()
+    };
+    Some(RayMeshHit {
+        point: affine.transform_point3(local.at(near).into()),
+        normal: affine.transform_vector3(local_normal),
+        barycentric_coords: Vec3::ZERO,
+        distance: near,
+        triangle: None,
+        uv: None,
+        triangle_index: None,
+    })
+}
