@@ -26,7 +26,12 @@ struct Palette {
 #[derive(Resource, Default)]
 struct Highlighted(Option<Entity>);
 
-fn main() {
+/// In screenshot mode, the static cube the pointer is placed over, and that must end up
+/// highlighted.
+#[derive(Resource)]
+struct Target(Entity, Vec3);
+
+fn main() -> AppExit {
     App::new()
         .add_plugins((DefaultPlugins, AccelPlugin::default()))
         .init_resource::<Highlighted>()
@@ -36,7 +41,7 @@ fn main() {
             PostUpdate,
             highlight_under_cursor.after(AccelSystems::Maintain),
         )
-        .run();
+        .run()
 }
 
 fn setup(
@@ -47,6 +52,7 @@ fn setup(
     let cube = meshes.add(Cuboid::new(0.8, 0.8, 0.8));
     let normal = materials.add(Color::srgb(0.35, 0.45, 0.6));
     let highlighted = materials.add(Color::srgb(1.0, 0.55, 0.1));
+    let mut target = None;
     for x in -GRID / 2..GRID / 2 {
         for z in -GRID / 2..GRID / 2 {
             let home = Vec3::new(x as f32 * 1.5, 0.0, z as f32 * 1.5);
@@ -63,6 +69,9 @@ fn setup(
                 });
             } else {
                 e.insert(AccelStatic);
+                if (x, z) == (2, 5) {
+                    target = Some(Target(e.id(), home));
+                }
             }
         }
     }
@@ -70,6 +79,9 @@ fn setup(
         normal,
         highlighted,
     });
+    if let Some(target) = target {
+        commands.insert_resource(target);
+    }
     commands.spawn((
         DirectionalLight::default(),
         Transform::from_xyz(3.0, 10.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y),
@@ -92,12 +104,19 @@ fn highlight_under_cursor(
     window: Single<&Window, With<PrimaryWindow>>,
     camera: Single<(&Camera, &GlobalTransform)>,
     trees: Res<AccelTrees>,
+    target: Option<Res<Target>>,
     palette: Res<Palette>,
     mut highlighted: ResMut<Highlighted>,
     mut materials: Query<&mut MeshMaterial3d<StandardMaterial>>,
 ) {
     let (camera, camera_tf) = *camera;
-    let pointer = window.cursor_position().unwrap_or(window.size() * 0.5);
+    // In screenshot mode the pointer is placed over a known static cube.
+    let aimed = target
+        .filter(|_| std::env::var_os("ACCEL_SCREENSHOT").is_some())
+        .and_then(|t| camera.world_to_viewport(camera_tf, t.1).ok());
+    let pointer = aimed
+        .or(window.cursor_position())
+        .unwrap_or(window.size() * 0.5);
     let Ok(ray) = camera.viewport_to_world(camera_tf, pointer) else {
         return;
     };
@@ -123,9 +142,13 @@ fn highlight_under_cursor(
     highlighted.0 = hit;
 }
 
+/// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the cube under the
+/// placed pointer is the one highlighted.
 fn screenshot_and_exit(
     mut commands: Commands,
     mut frame: Local<u32>,
+    highlighted: Res<Highlighted>,
+    target: Option<Res<Target>>,
     mut exit: MessageWriter<AppExit>,
 ) {
     let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else {
@@ -138,6 +161,13 @@ fn screenshot_and_exit(
             .observe(save_to_disk(path));
     }
     if *frame == 40 {
-        exit.write(AppExit::Success);
+        let expected = target.map(|t| t.0);
+        if highlighted.0.is_some() && highlighted.0 == expected {
+            info!("highlighted the expected cube {expected:?}");
+            exit.write(AppExit::Success);
+        } else {
+            error!("highlighted {:?}, expected {expected:?}", highlighted.0);
+            exit.write(AppExit::error());
+        }
     }
 }
