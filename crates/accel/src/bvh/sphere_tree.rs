@@ -2,7 +2,7 @@
 
 use super::Bvh;
 use crate::query::TraversalStack;
-use crate::query::binary::sort_hits;
+use crate::query::ray_walk::{RayWalk, all_hits, any_hit, closest_hit};
 use crate::{Aabb, Containment, Frustum, Ray, RayHit, SpatialQuery, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
@@ -114,7 +114,9 @@ impl SphereBvh {
             }
         }
     }
+}
 
+impl RayWalk for SphereBvh {
     /// Nearest-first ray walk with pruning by the ray's (shrinking) range.
     fn walk_ray<F>(&self, ray: &mut Ray, mut visit: F)
     where
@@ -158,55 +160,25 @@ impl SphereBvh {
 }
 
 impl SpatialQuery for SphereBvh {
-    fn cast_ray<F>(&self, ray: &Ray, mut hit: F) -> Option<RayHit>
+    fn cast_ray<F>(&self, ray: &Ray, hit: F) -> Option<RayHit>
     where
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        let mut best: Option<RayHit> = None;
-        self.walk_ray(&mut ray, |p, ray| {
-            if let Some(t) = hit(p, ray)
-                && t >= ray.t_min
-                && t <= ray.t_max
-                && best.is_none_or(|b| t < b.t)
-            {
-                ray.t_max = t;
-                best = Some(RayHit { primitive: p, t });
-            }
-            ControlFlow::Continue(())
-        });
-        best
+        closest_hit(self, ray, hit)
     }
 
-    fn cast_ray_any<F>(&self, ray: &Ray, mut hit: F) -> Option<u32>
+    fn cast_ray_any<F>(&self, ray: &Ray, hit: F) -> Option<u32>
     where
         F: FnMut(u32, &Ray) -> bool,
     {
-        let mut ray = *ray;
-        let mut found = None;
-        self.walk_ray(&mut ray, |p, ray| {
-            if hit(p, ray) {
-                found = Some(p);
-                return ControlFlow::Break(());
-            }
-            ControlFlow::Continue(())
-        });
-        found
+        any_hit(self, ray, hit)
     }
 
-    fn cast_ray_all<F>(&self, ray: &Ray, mut hit: F, out: &mut Vec<RayHit>)
+    fn cast_ray_all<F>(&self, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
     where
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
-        let start = out.len();
-        let mut ray = *ray;
-        self.walk_ray(&mut ray, |p, ray| {
-            if let Some(t) = hit(p, ray).filter(|t| *t >= ray.t_min && *t <= ray.t_max) {
-                out.push(RayHit { primitive: p, t });
-            }
-            ControlFlow::Continue(())
-        });
-        sort_hits(&mut out[start..]);
+        all_hits(self, ray, hit, out)
     }
 
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)

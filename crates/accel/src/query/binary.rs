@@ -3,6 +3,7 @@
 //! Each is a stack traversal that visits the nearer child first (for rays) and prunes by the
 //! best distance found so far. They work on any [`BoundingTree`].
 
+use super::ray_walk::{RayWalk, all_hits, any_hit, closest_hit};
 use super::{BoundingTree, RayHit, TraversalStack};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::cmp::Ordering;
@@ -11,63 +12,42 @@ use glam::Vec3A;
 use std::collections::BinaryHeap;
 
 /// Closest hit; see [`super::SpatialQuery::cast_ray`].
-pub fn cast_ray<T, F>(tree: &T, ray: &Ray, mut hit: F) -> Option<RayHit>
+pub fn cast_ray<T, F>(tree: &T, ray: &Ray, hit: F) -> Option<RayHit>
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &Ray) -> Option<f32>,
 {
-    let mut ray = *ray;
-    let mut best = None;
-    visit_ray_front_to_back(tree, &mut ray, |prim, ray| {
-        if let Some(t) = hit(prim, ray)
-            && t >= ray.t_min
-            && t <= ray.t_max
-            && best.is_none_or(|b: RayHit| t < b.t)
-        {
-            ray.t_max = t;
-            best = Some(RayHit { primitive: prim, t });
-        }
-        ControlFlow::Continue(())
-    });
-    best
+    closest_hit(&FrontToBack(tree), ray, hit)
 }
 
 /// Any hit; see [`super::SpatialQuery::cast_ray_any`].
-pub fn cast_ray_any<T, F>(tree: &T, ray: &Ray, mut hit: F) -> Option<u32>
+pub fn cast_ray_any<T, F>(tree: &T, ray: &Ray, hit: F) -> Option<u32>
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &Ray) -> bool,
 {
-    let mut ray = *ray;
-    let mut found = None;
-    visit_ray_front_to_back(tree, &mut ray, |prim, ray| {
-        if hit(prim, ray) {
-            found = Some(prim);
-            return ControlFlow::Break(());
-        }
-        ControlFlow::Continue(())
-    });
-    found
+    any_hit(&FrontToBack(tree), ray, hit)
 }
 
 /// All hits, sorted; see [`super::SpatialQuery::cast_ray_all`].
-pub fn cast_ray_all<T, F>(tree: &T, ray: &Ray, mut hit: F, out: &mut Vec<RayHit>)
+pub fn cast_ray_all<T, F>(tree: &T, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &Ray) -> Option<f32>,
 {
-    let start = out.len();
-    let mut ray = *ray;
-    visit_ray_front_to_back(tree, &mut ray, |prim, ray| {
-        if let Some(t) = hit(prim, ray)
-            && t >= ray.t_min
-            && t <= ray.t_max
-        {
-            out.push(RayHit { primitive: prim, t });
-        }
-        ControlFlow::Continue(())
-    });
-    sort_hits(&mut out[start..]);
+    all_hits(&FrontToBack(tree), ray, hit, out)
+}
+
+/// A binary tree walked nearer child first.
+struct FrontToBack<'a, T: ?Sized>(&'a T);
+
+impl<T: BoundingTree + ?Sized> RayWalk for FrontToBack<'_, T> {
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        visit_ray_front_to_back(self.0, ray, visit)
+    }
 }
 
 /// Sorts hits by distance, then id, so results are deterministic whatever the tree's shape.

@@ -9,9 +9,11 @@
 //! [`BoundingTree`].
 
 pub mod binary;
+pub mod ray_walk;
 mod stack;
 mod tree;
 
+pub use ray_walk::RayWalk;
 pub(crate) use stack::TraversalStack;
 pub use tree::BoundingTree;
 

@@ -3,7 +3,7 @@
 use super::WideBvh;
 use super::ray::visit_ray;
 use crate::query::TraversalStack;
-use crate::query::binary::sort_hits;
+use crate::query::ray_walk::{RayWalk, all_hits, any_hit, closest_hit};
 use crate::{Aabb, Containment, Frustum, Ray, RayHit, SpatialQuery, Sphere};
 use core::cmp::Reverse;
 use core::ops::ControlFlow;
@@ -75,59 +75,35 @@ impl<const N: usize> WideBvh<N> {
     }
 }
 
+impl<const N: usize> RayWalk for WideBvh<N> {
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        visit_ray(self, ray, visit)
+    }
+}
+
 impl<const N: usize> SpatialQuery for WideBvh<N> {
-    fn cast_ray<F>(&self, ray: &Ray, mut hit: F) -> Option<RayHit>
+    fn cast_ray<F>(&self, ray: &Ray, hit: F) -> Option<RayHit>
     where
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        let mut best: Option<RayHit> = None;
-        visit_ray(self, &mut ray, |p, ray| {
-            if let Some(t) = hit(p, ray)
-                && t >= ray.t_min
-                && t <= ray.t_max
-                && best.is_none_or(|b| t < b.t)
-            {
-                ray.t_max = t;
-                best = Some(RayHit { primitive: p, t });
-            }
-            ControlFlow::Continue(())
-        });
-        best
+        closest_hit(self, ray, hit)
     }
 
-    fn cast_ray_any<F>(&self, ray: &Ray, mut hit: F) -> Option<u32>
+    fn cast_ray_any<F>(&self, ray: &Ray, hit: F) -> Option<u32>
     where
         F: FnMut(u32, &Ray) -> bool,
     {
-        let mut ray = *ray;
-        let mut found = None;
-        visit_ray(self, &mut ray, |p, ray| {
-            if hit(p, ray) {
-                found = Some(p);
-                return ControlFlow::Break(());
-            }
-            ControlFlow::Continue(())
-        });
-        found
+        any_hit(self, ray, hit)
     }
 
-    fn cast_ray_all<F>(&self, ray: &Ray, mut hit: F, out: &mut Vec<RayHit>)
+    fn cast_ray_all<F>(&self, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
     where
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
-        let start = out.len();
-        let mut ray = *ray;
-        visit_ray(self, &mut ray, |p, ray| {
-            if let Some(t) = hit(p, ray)
-                && t >= ray.t_min
-                && t <= ray.t_max
-            {
-                out.push(RayHit { primitive: p, t });
-            }
-            ControlFlow::Continue(())
-        });
-        sort_hits(&mut out[start..]);
+        all_hits(self, ray, hit, out)
     }
 
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
