@@ -76,11 +76,14 @@ impl DynamicBvh {
             let node = &mut self.arena.nodes[i as usize];
             node.flags &= !FLAG_QUEUED;
             node.height = new_height;
+            // Only a node whose box changed can have started to overlap its sibling: an
+            // unchanged one keeps the shape the last rotation chose, and skipping it saves a
+            // visit to four grandchildren scattered through the arena.
             if new_box != n.aabb {
                 self.set_aabb(i, new_box);
-            }
-            if rotate {
-                self.rotate(i);
+                if rotate {
+                    self.rotate(i);
+                }
             }
         }
         let touched = sorted.len();
