@@ -49,6 +49,20 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     let (mut app, entities) = app_with(N, false);
     let mut frame = 0u64;
+    // One frame's split between applying updates and maintaining the tree, for the record.
+    for (k, &e) in entities.iter().enumerate().step_by(10) {
+        app.world_mut()
+            .get_mut::<Transform>(e)
+            .unwrap()
+            .translation
+            .y += if k % 20 == 0 { 0.3 } else { -0.3 };
+    }
+    app.update();
+    let s = app.world().resource::<AccelStats>();
+    println!(
+        "10% moving: sync {:?} ({} updated), maintain {:?}",
+        s.sync_time, s.updated, s.maintain_time
+    );
     g.bench_function("100k_dynamic_10pct_moving", |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
