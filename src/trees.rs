@@ -121,10 +121,16 @@ impl AccelTrees {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slot_bounds[t.slot as usize] = bounds;
-                    self.pair
-                        .dynamic_mut()
-                        .update(h, bounds)
-                        .expect("tracked handles are live and bounds were validated")
+                    match self.pair.dynamic_mut().update(h, bounds) {
+                        Ok(changed) => changed,
+                        Err(e) => {
+                            // Cannot happen while handles and boxes are checked on the way in;
+                            // if it does, re-inserting keeps the entity in the tree.
+                            error!("bevy_accel: updating {entity} failed ({e}); re-inserting it");
+                            self.remove(entity);
+                            self.place(entity, bounds, false)
+                        }
+                    }
                 }
                 (TreeSlot::Static, true) => {
                     // Static entities are placed only when (re)marked; a changed box means
@@ -148,12 +154,14 @@ impl AccelTrees {
                     self.static_dirty = true;
                     TreeSlot::Static
                 } else {
-                    let handle = self
-                        .pair
-                        .dynamic_mut()
-                        .insert(slot, bounds)
-                        .expect("bounds were validated before insertion");
-                    TreeSlot::Dynamic(handle)
+                    match self.pair.dynamic_mut().insert(slot, bounds) {
+                        Ok(handle) => TreeSlot::Dynamic(handle),
+                        Err(e) => {
+                            error!("bevy_accel: {entity} could not enter the dynamic tree: {e}");
+                            self.release_slot(slot);
+                            return false;
+                        }
+                    }
                 };
                 self.tracked.insert(entity, Tracked { slot, tree });
                 true
@@ -168,20 +176,23 @@ impl AccelTrees {
         };
         match t.tree {
             TreeSlot::Dynamic(h) => {
-                self.pair
-                    .dynamic_mut()
-                    .remove(h)
-                    .expect("tracked handles are live");
+                if let Err(e) = self.pair.dynamic_mut().remove(h) {
+                    error!("bevy_accel: removing {entity} from the dynamic tree failed: {e}");
+                }
             }
             TreeSlot::Static => {
                 self.static_bounds[t.slot as usize] = Aabb::EMPTY;
                 self.static_dirty = true;
             }
         }
-        self.slot_entity[t.slot as usize] = None;
-        self.slot_bounds[t.slot as usize] = Aabb::EMPTY;
-        self.free_slots.push(t.slot);
+        self.release_slot(t.slot);
         true
+    }
+
+    fn release_slot(&mut self, slot: u32) {
+        self.slot_entity[slot as usize] = None;
+        self.slot_bounds[slot as usize] = Aabb::EMPTY;
+        self.free_slots.push(slot);
     }
 
     /// Rebuilds the static tree if its set changed since the last call. The static tree is
