@@ -112,6 +112,8 @@ fn select_on_click(
 
 /// Screenshot mode: presses and releases the primary button over the target cube, saves a
 /// frame, and exits with an error unless the cube was selected.
+// A system's parameters are its dependencies; bundling them would only hide them.
+#[allow(clippy::too_many_arguments)]
 fn synthetic_click_and_screenshot(
     mut commands: Commands,
     mut frame: Local<u32>,
