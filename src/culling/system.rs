@@ -119,8 +119,13 @@ pub(crate) fn cull_views_with_trees(
                 &mut candidates,
                 &mut thread_queues,
                 &mut visible_entities,
-                (view, frustum, &view_mask, no_cpu_culling_view),
-                ranges,
+                ViewFilter {
+                    view,
+                    mask: &view_mask,
+                    ranges,
+                },
+                frustum,
+                no_cpu_culling_view,
             );
             s.visible += visible;
             s.tested += candidates.iter().len();
@@ -128,6 +133,11 @@ pub(crate) fn cull_views_with_trees(
             continue;
         }
         let visible_before = s.visible;
+        let filter = ViewFilter {
+            view,
+            mask: &view_mask,
+            ranges,
+        };
         // Decides one entity as Bevy's `check_visibility_cpu_culling` does; `exact` false
         // means a tree already proved it inside the frustum.
         let mut consider = |entity: Entity, exact: bool, s: &mut CullingStats| {
@@ -146,10 +156,7 @@ pub(crate) fn cull_views_with_trees(
             else {
                 return;
             };
-            if !inherited.get() || !view_mask.intersects(layers.unwrap_or_default()) {
-                return;
-            }
-            if has_range && ranges.is_some_and(|r| !r.entity_is_in_range_of_view(entity, view)) {
+            if !filter.admits(entity, inherited, layers, has_range) {
                 return;
             }
             if exact && !no_frustum_culling && !no_cpu_culling_view {
@@ -197,14 +204,43 @@ pub(crate) fn cull_views_with_trees(
     *stats = s;
 }
 
+/// The per-entity rules Bevy applies before any frustum test: the entity is visible in the
+/// hierarchy, shares a render layer with the view, and is within its visibility range. Both
+/// culling paths ask it, so they cannot drift apart.
+#[derive(Clone, Copy)]
+struct ViewFilter<'a> {
+    view: Entity,
+    mask: &'a RenderLayers,
+    ranges: Option<&'a VisibleEntityRanges>,
+}
+
+impl ViewFilter<'_> {
+    #[inline]
+    fn admits(
+        &self,
+        entity: Entity,
+        inherited: &InheritedVisibility,
+        layers: Option<&RenderLayers>,
+        has_range: bool,
+    ) -> bool {
+        inherited.get()
+            && self.mask.intersects(layers.unwrap_or_default())
+            && !(has_range
+                && self
+                    .ranges
+                    .is_some_and(|r| !r.entity_is_in_range_of_view(entity, self.view)))
+    }
+}
+
 /// Bevy's own loop, for views that see most of the world: every entity once, in parallel,
 /// with Bevy's tests. Returns how many entities it made visible.
 fn flat_pass(
     candidates: &mut Query<CandidateItem, Without<NoCpuCulling>>,
     thread_queues: &mut Parallel<TypeIdMap<Vec<Entity>>>,
     visible_entities: &mut VisibleEntities,
-    (view, frustum, view_mask, no_cpu_culling_view): (Entity, &Frustum, &RenderLayers, bool),
-    ranges: Option<&VisibleEntityRanges>,
+    filter: ViewFilter<'_>,
+    frustum: &Frustum,
+    no_cpu_culling_view: bool,
 ) -> usize {
     let visible = AtomicUsize::new(0);
     candidates.par_iter_mut().for_each_init(
@@ -222,10 +258,7 @@ fn flat_pass(
             no_frustum_culling,
             has_range,
         )| {
-            if !inherited.get() || !view_mask.intersects(layers.unwrap_or_default()) {
-                return;
-            }
-            if has_range && ranges.is_some_and(|r| !r.entity_is_in_range_of_view(entity, view)) {
+            if !filter.admits(entity, inherited, layers, has_range) {
                 return;
             }
             if !no_frustum_culling
