@@ -3,7 +3,6 @@
 //! Each is a stack traversal that visits the nearer child first (for rays) and prunes by the
 //! best distance found so far. They work on any [`BoundingTree`].
 
-use super::ray_walk::{RayWalk, all_hits, any_hit, closest_hit};
 use super::{BoundingTree, RayHit, TraversalStack};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::cmp::Ordering;
@@ -11,53 +10,15 @@ use core::ops::ControlFlow;
 use glam::Vec3A;
 use std::collections::BinaryHeap;
 
-/// Closest hit; see [`super::SpatialQuery::cast_ray`].
-pub fn cast_ray<T, F>(tree: &T, ray: &Ray, hit: F) -> Option<RayHit>
-where
-    T: BoundingTree + ?Sized,
-    F: FnMut(u32, &Ray) -> Option<f32>,
-{
-    closest_hit(&FrontToBack(tree), ray, hit)
-}
-
-/// Any hit; see [`super::SpatialQuery::cast_ray_any`].
-pub fn cast_ray_any<T, F>(tree: &T, ray: &Ray, hit: F) -> Option<u32>
-where
-    T: BoundingTree + ?Sized,
-    F: FnMut(u32, &Ray) -> bool,
-{
-    any_hit(&FrontToBack(tree), ray, hit)
-}
-
-/// All hits, sorted; see [`super::SpatialQuery::cast_ray_all`].
-pub fn cast_ray_all<T, F>(tree: &T, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
-where
-    T: BoundingTree + ?Sized,
-    F: FnMut(u32, &Ray) -> Option<f32>,
-{
-    all_hits(&FrontToBack(tree), ray, hit, out)
-}
-
-/// A binary tree walked nearer child first.
-struct FrontToBack<'a, T: ?Sized>(&'a T);
-
-impl<T: BoundingTree + ?Sized> RayWalk for FrontToBack<'_, T> {
-    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
-    where
-        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
-    {
-        visit_ray_front_to_back(self.0, ray, visit)
-    }
-}
-
 /// Sorts hits by distance, then id, so results are deterministic whatever the tree's shape.
 pub fn sort_hits(hits: &mut [RayHit]) {
     hits.sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.primitive.cmp(&b.primitive)));
 }
 
 /// Walks the leaves a ray reaches, nearer child first, skipping subtrees that start beyond
-/// `ray.t_max`, which the visitor may shrink as it finds hits.
-fn visit_ray_front_to_back<T, F>(tree: &T, ray: &mut Ray, mut visit: F)
+/// `ray.t_max`, which the visitor may shrink as it finds hits: the [`RayWalk`](super::RayWalk)
+/// of every binary tree.
+pub fn visit_ray_front_to_back<T, F>(tree: &T, ray: &mut Ray, mut visit: F)
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
@@ -312,30 +273,21 @@ impl<T: BoundingTree + ?Sized> BoundingTree for Subtree<'_, T> {
     }
 }
 
-/// Implements [`super::SpatialQuery`] for a [`BoundingTree`] through the traversals of this
+/// Implements [`super::RayWalk`] and [`super::SpatialQuery`] for a [`BoundingTree`] through the traversals of this
 /// module, so every binary tree answers queries with the same code.
 #[macro_export]
 macro_rules! impl_spatial_query_for_binary_tree {
     ($ty:ty) => {
+        impl $crate::query::RayWalk for $ty {
+            fn walk_ray<V>(&self, ray: &mut $crate::Ray, visit: V)
+            where
+                V: FnMut(u32, &mut $crate::Ray) -> core::ops::ControlFlow<()>,
+            {
+                $crate::query::binary::visit_ray_front_to_back(self, ray, visit)
+            }
+        }
+
         impl $crate::SpatialQuery for $ty {
-            fn cast_ray<F>(&self, ray: &$crate::Ray, hit: F) -> Option<$crate::RayHit>
-            where
-                F: FnMut(u32, &$crate::Ray) -> Option<f32>,
-            {
-                $crate::query::binary::cast_ray(self, ray, hit)
-            }
-            fn cast_ray_any<F>(&self, ray: &$crate::Ray, hit: F) -> Option<u32>
-            where
-                F: FnMut(u32, &$crate::Ray) -> bool,
-            {
-                $crate::query::binary::cast_ray_any(self, ray, hit)
-            }
-            fn cast_ray_all<F>(&self, ray: &$crate::Ray, hit: F, out: &mut Vec<$crate::RayHit>)
-            where
-                F: FnMut(u32, &$crate::Ray) -> Option<f32>,
-            {
-                $crate::query::binary::cast_ray_all(self, ray, hit, out)
-            }
             fn for_each_overlapping_aabb<F>(&self, aabb: &$crate::Aabb, visit: F)
             where
                 F: FnMut(u32) -> core::ops::ControlFlow<()>,

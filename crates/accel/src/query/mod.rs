@@ -49,22 +49,34 @@ pub struct RayHit {
 /// assert_eq!(hit.primitive, 0);
 /// assert!((hit.t - 1.0).abs() < 1e-5);
 /// ```
-pub trait SpatialQuery {
+///
+/// A structure implements [`RayWalk`] (how it visits what a ray reaches) and gets the three ray
+/// queries from it, so their acceptance rules are the same everywhere.
+pub trait SpatialQuery: RayWalk {
     /// The closest hit: `hit(primitive, ray)` returns the exact hit parameter, if any, within
     /// the ray's (shrinking) range. Subtrees farther than the best hit so far are skipped.
     fn cast_ray<F>(&self, ray: &Ray, hit: F) -> Option<RayHit>
     where
-        F: FnMut(u32, &Ray) -> Option<f32>;
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        ray_walk::closest_hit(self, ray, hit)
+    }
 
     /// Any hit (occlusion): stops at the first primitive for which `hit` returns true.
     fn cast_ray_any<F>(&self, ray: &Ray, hit: F) -> Option<u32>
     where
-        F: FnMut(u32, &Ray) -> bool;
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        ray_walk::any_hit(self, ray, hit)
+    }
 
     /// Every hit within the ray's range, appended to `out` sorted by `t` (ties by id).
     fn cast_ray_all<F>(&self, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
     where
-        F: FnMut(u32, &Ray) -> Option<f32>;
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        ray_walk::all_hits(self, ray, hit, out)
+    }
 
     /// Calls `visit` for each primitive whose tree bounds overlap `aabb`; it may stop early.
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)

@@ -2,9 +2,9 @@
 
 use super::WideBvh;
 use super::ray::visit_ray;
+use crate::query::RayWalk;
 use crate::query::TraversalStack;
-use crate::query::ray_walk::{RayWalk, all_hits, any_hit, closest_hit};
-use crate::{Aabb, Containment, Frustum, Ray, RayHit, SpatialQuery, Sphere};
+use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use core::cmp::Reverse;
 use core::ops::ControlFlow;
 use glam::Vec3A;
@@ -85,27 +85,6 @@ impl<const N: usize> RayWalk for WideBvh<N> {
 }
 
 impl<const N: usize> SpatialQuery for WideBvh<N> {
-    fn cast_ray<F>(&self, ray: &Ray, hit: F) -> Option<RayHit>
-    where
-        F: FnMut(u32, &Ray) -> Option<f32>,
-    {
-        closest_hit(self, ray, hit)
-    }
-
-    fn cast_ray_any<F>(&self, ray: &Ray, hit: F) -> Option<u32>
-    where
-        F: FnMut(u32, &Ray) -> bool,
-    {
-        any_hit(self, ray, hit)
-    }
-
-    fn cast_ray_all<F>(&self, ray: &Ray, hit: F, out: &mut Vec<RayHit>)
-    where
-        F: FnMut(u32, &Ray) -> Option<f32>,
-    {
-        all_hits(self, ray, hit, out)
-    }
-
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
