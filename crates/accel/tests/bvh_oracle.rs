@@ -5,7 +5,7 @@ mod scenes;
 
 use accel::bvh::SphereBvh;
 use accel::bvh::stats::tree_stats;
-use accel::bvh::wide::{Bvh4, Bvh8};
+use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
 use accel::{
     Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy,
 };
@@ -58,6 +58,15 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     bvh8.validate(boxes)
         .unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
     check_queries(&bvh8, boxes, seed, n_queries);
+    // The quantized layout is for finite geometry (its docs say so): unbounded boxes are
+    // clamped to the largest float.
+    if boxes.iter().all(|b| !b.is_valid() || b.is_finite()) {
+        let qbvh8 = QBvh8::from_bvh(&bvh);
+        qbvh8
+            .validate(boxes)
+            .unwrap_or_else(|e| panic!("quantized 8-wide {cfg:?}: {e}"));
+        check_queries(&qbvh8, boxes, seed, n_queries);
+    }
     check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
 }
 
@@ -208,11 +217,15 @@ fn a_million_primitives_build_validate_and_query() {
     bvh.validate(&boxes).unwrap();
     let bvh8 = Bvh8::from_bvh(&bvh);
     bvh8.validate(&boxes).unwrap();
+    let qbvh8 = QBvh8::from_bvh(&bvh);
+    qbvh8.validate(&boxes).unwrap();
     for ray in rays(200, 6, 120.0) {
         let want = closest_brute(&boxes, &ray);
         let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
         assert_eq!(got.map(|h| h.t), want);
         let got = bvh8.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), want);
+        let got = qbvh8.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
         assert_eq!(got.map(|h| h.t), want);
     }
 }

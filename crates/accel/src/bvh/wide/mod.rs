@@ -7,12 +7,16 @@
 //! levels, so quality is unchanged while depth drops by 2x (4-wide) or 3x (8-wide).
 
 mod collapse;
+mod layout;
 mod node;
+mod quantized;
 mod query;
 mod ray;
 mod refit;
 
+pub use layout::WideLayout;
 pub use node::{EMPTY_SLOT, WideNode};
+pub use quantized::QuantizedNode;
 
 use super::Bvh;
 use crate::Aabb;
@@ -34,9 +38,12 @@ use crate::Aabb;
 /// let hit = wide.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize])).unwrap();
 /// assert_eq!(hit.primitive, 101);
 /// ```
+///
+/// The node layout `L` is [`WideNode`] (exact `f32` child boxes) by default, or
+/// [`QuantizedNode`] (8-bit child boxes, half the memory: see [`QBvh8`]).
 #[derive(Clone, Debug, Default)]
-pub struct WideBvh<const N: usize> {
-    pub(crate) nodes: Vec<WideNode<N>>,
+pub struct WideBvh<const N: usize, L = WideNode<N>> {
+    pub(crate) nodes: Vec<L>,
     pub(crate) primitive_indices: Vec<u32>,
     pub(crate) bounds: Aabb,
 }
@@ -45,8 +52,13 @@ pub struct WideBvh<const N: usize> {
 pub type Bvh4 = WideBvh<4>;
 /// The 8-wide layout (one AVX register, or two SSE registers, per coordinate).
 pub type Bvh8 = WideBvh<8>;
+/// The 8-wide layout with quantized child boxes: 128-byte nodes (two cache lines) instead of
+/// 256, for trees traced by many incoherent rays (mesh BVHs), where node fetches from memory
+/// dominate (Ylitie et al. 2017, "Efficient incoherent ray traversal on GPUs through
+/// compressed wide BVHs"; Embree's QBVH8).
+pub type QBvh8 = WideBvh<8, QuantizedNode<8>>;
 
-impl<const N: usize> WideBvh<N> {
+impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Collapses a binary tree. The primitive order is the binary tree's.
     pub fn from_bvh(bvh: &Bvh) -> Self {
         const { assert!(N == 4 || N == 8, "wide BVHs are 4- or 8-wide") };
@@ -54,7 +66,7 @@ impl<const N: usize> WideBvh<N> {
     }
 
     /// The node array; node 0 is the root.
-    pub fn nodes(&self) -> &[WideNode<N>] {
+    pub fn nodes(&self) -> &[L] {
         &self.nodes
     }
 
@@ -80,7 +92,7 @@ impl<const N: usize> WideBvh<N> {
 
     /// Memory held by the tree, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * core::mem::size_of::<WideNode<N>>() + self.primitive_indices.len() * 4
+        self.nodes.len() * core::mem::size_of::<L>() + self.primitive_indices.len() * 4
     }
 
     /// Checks that every slot's box contains what is below it and that every valid primitive

@@ -1,7 +1,7 @@
 //! [`SpatialQuery`] for wide trees: rays through the SIMD traversal, the rest per slot.
 
-use super::WideBvh;
 use super::ray::visit_ray;
+use super::{WideBvh, WideLayout};
 use crate::query::RayWalk;
 use crate::query::TraversalStack;
 use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
@@ -10,7 +10,7 @@ use core::ops::ControlFlow;
 use glam::Vec3A;
 use std::collections::BinaryHeap;
 
-impl<const N: usize> WideBvh<N> {
+impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Visits the primitives of every leaf slot whose box passes `slot_test`.
     fn for_each_leaf_primitive<P, F>(&self, mut slot_test: P, mut visit: F) -> ControlFlow<()>
     where
@@ -31,7 +31,7 @@ impl<const N: usize> WideBvh<N> {
                 if node.is_leaf(slot) {
                     self.visit_slot_primitives(n, slot, &mut visit)?;
                 } else {
-                    stack.push(node.child[slot]);
+                    stack.push(node.child(slot));
                 }
             }
         }
@@ -43,8 +43,8 @@ impl<const N: usize> WideBvh<N> {
         F: FnMut(u32) -> ControlFlow<()>,
     {
         let n = &self.nodes[node as usize];
-        let first = n.child[slot] as usize;
-        for &p in &self.primitive_indices[first..first + n.count[slot] as usize] {
+        let first = n.child(slot) as usize;
+        for &p in &self.primitive_indices[first..first + n.count(slot) as usize] {
             visit(p)?;
         }
         ControlFlow::Continue(())
@@ -61,21 +61,21 @@ impl<const N: usize> WideBvh<N> {
             return;
         }
         let mut stack: TraversalStack<u32> = TraversalStack::new();
-        stack.push(n.child[slot]);
+        stack.push(n.child(slot));
         while let Some(c) = stack.pop() {
             let cn = &self.nodes[c as usize];
             for s in (0..N).filter(|&s| cn.is_used(s)) {
                 if cn.is_leaf(s) {
                     let _ = self.visit_slot_primitives(c, s, visit);
                 } else {
-                    stack.push(cn.child[s]);
+                    stack.push(cn.child(s));
                 }
             }
         }
     }
 }
 
-impl<const N: usize> RayWalk for WideBvh<N> {
+impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
     fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
@@ -84,7 +84,7 @@ impl<const N: usize> RayWalk for WideBvh<N> {
     }
 }
 
-impl<const N: usize> SpatialQuery for WideBvh<N> {
+impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
@@ -130,7 +130,7 @@ impl<const N: usize> SpatialQuery for WideBvh<N> {
                             ControlFlow::Continue(())
                         });
                     }
-                    Containment::Intersecting => stack.push(node.child[slot]),
+                    Containment::Intersecting => stack.push(node.child(slot)),
                 }
             }
         }
@@ -177,7 +177,7 @@ impl<const N: usize> SpatialQuery for WideBvh<N> {
                     ControlFlow::Continue(())
                 });
             } else {
-                frontier.push(Reverse((d2, node.child[slot], N)));
+                frontier.push(Reverse((d2, node.child(slot), N)));
             }
         }
         // Non-negative floats order like their bit patterns, so the heaps compared bits.

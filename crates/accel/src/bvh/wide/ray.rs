@@ -1,7 +1,7 @@
 //! Ray traversal of wide nodes: all child boxes of a node tested at once, four lanes per
 //! SIMD register.
 
-use super::{WideBvh, WideNode};
+use super::{WideBvh, WideLayout, WideNode};
 use crate::query::TraversalStack;
 use crate::{Ray, SLAB_WIDENING};
 use core::ops::ControlFlow;
@@ -10,15 +10,53 @@ use glam::Vec4;
 /// A ray splatted across four lanes, with the slab-plane choice made once per ray: a ray's
 /// direction signs decide which face of every box it enters by, so the per-node test needs no
 /// per-lane select.
-struct RayLanes {
-    origin: [Vec4; 3],
-    inv_direction: [Vec4; 3],
-    negative: [bool; 3],
-    t_min: Vec4,
+pub struct RayLanes {
+    pub(super) origin: [Vec4; 3],
+    pub(super) inv_direction: [Vec4; 3],
+    pub(super) negative: [bool; 3],
+    pub(super) t_min: Vec4,
+}
+
+/// The ray test of a node layout: every slot at once. Lives in this private module so the
+/// public [`WideLayout`] can require it without making it part of the API (a sealed trait).
+pub trait SlotRayTest<const N: usize> {
+    /// The hit mask (bit i = slot i) and each slot's entry distance.
+    fn intersect_slots(&self, ray: &RayLanes, t_max: f32) -> (u32, [f32; N]);
+    /// Bit i set when slot i is a leaf.
+    fn leaf_mask(&self) -> u32;
+}
+
+impl<const N: usize> SlotRayTest<N> for WideNode<N> {
+    #[inline(always)]
+    fn intersect_slots(&self, ray: &RayLanes, t_max: f32) -> (u32, [f32; N]) {
+        slab_test_lanes::<N>(
+            |chunk| {
+                (
+                    [
+                        lanes(&self.min_x, chunk),
+                        lanes(&self.min_y, chunk),
+                        lanes(&self.min_z, chunk),
+                    ],
+                    [
+                        lanes(&self.max_x, chunk),
+                        lanes(&self.max_y, chunk),
+                        lanes(&self.max_z, chunk),
+                    ],
+                )
+            },
+            ray,
+            t_max,
+        )
+    }
+
+    #[inline(always)]
+    fn leaf_mask(&self) -> u32 {
+        leaf_mask_of(&self.count)
+    }
 }
 
 impl RayLanes {
-    fn new(ray: &Ray) -> Self {
+    pub(super) fn new(ray: &Ray) -> Self {
         let o = ray.origin;
         let inv = ray.inv_direction;
         Self {
@@ -37,7 +75,7 @@ impl RayLanes {
 /// second operand when either is NaN, and so does the scalar `f32::max`, so putting the
 /// candidate first gets the rule for free; other back ends pay for an explicit select.
 #[inline(always)]
-fn max_ignoring_nan(candidate: Vec4, acc: Vec4) -> Vec4 {
+pub(super) fn max_ignoring_nan(candidate: Vec4, acc: Vec4) -> Vec4 {
     if cfg!(any(target_arch = "x86", target_arch = "x86_64")) {
         candidate.max(acc)
     } else {
@@ -56,30 +94,26 @@ fn min_ignoring_nan(candidate: Vec4, acc: Vec4) -> Vec4 {
 }
 
 #[inline(always)]
-fn lanes<const N: usize>(a: &[f32; N], chunk: usize) -> Vec4 {
+pub(super) fn lanes<const N: usize>(a: &[f32; N], chunk: usize) -> Vec4 {
     Vec4::from_slice(&a[chunk * 4..chunk * 4 + 4])
 }
 
 /// Tests the ray against every child box of a node: returns the hit mask (bit i = slot i) and
 /// each slot's entry distance. The same conservative, widened slab test as
-/// [`Ray::intersect_aabb`], lane by lane.
+/// [`Ray::intersect_aabb`], lane by lane. `boxes(chunk)` gives the min and max corners of
+/// slots `4 * chunk ..4 * chunk + 4`, per axis.
 #[inline(always)]
-fn test_children<const N: usize>(node: &WideNode<N>, r: &RayLanes, t_max: f32) -> (u32, [f32; N]) {
+pub(super) fn slab_test_lanes<const N: usize>(
+    boxes: impl Fn(usize) -> ([Vec4; 3], [Vec4; 3]),
+    r: &RayLanes,
+    t_max: f32,
+) -> (u32, [f32; N]) {
     let mut mask = 0u32;
     let mut entry_t = [0.0f32; N];
     let t_max = Vec4::splat(t_max);
     let widen = Vec4::splat(SLAB_WIDENING);
     for chunk in 0..N / 4 {
-        let mins = [
-            lanes(&node.min_x, chunk),
-            lanes(&node.min_y, chunk),
-            lanes(&node.min_z, chunk),
-        ];
-        let maxs = [
-            lanes(&node.max_x, chunk),
-            lanes(&node.max_y, chunk),
-            lanes(&node.max_z, chunk),
-        ];
+        let (mins, maxs) = boxes(chunk);
         let mut near = Vec4::NEG_INFINITY;
         let mut far = Vec4::INFINITY;
         for axis in 0..3 {
@@ -103,10 +137,44 @@ fn test_children<const N: usize>(node: &WideNode<N>, r: &RayLanes, t_max: f32) -
     (mask, entry_t)
 }
 
+/// Asks for a node's cache lines ahead of its visit. A pushed sibling is usually visited
+/// soon, and an incoherent ray's traversal is bound by node fetches from memory: starting
+/// them early overlaps their latency with the current subtree's work.
+#[inline(always)]
+fn prefetch_node<T>(node: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = (node as *const T).cast::<i8>();
+        for line in (0..core::mem::size_of::<T>()).step_by(64) {
+            // SAFETY: prefetching is a hint that never faults; the address is inside `node`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(line)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = node;
+}
+
+/// Bit i set when `count[i]` is not zero, i.e. slot i is a leaf (written so the compiler can
+/// turn it into one SIMD compare and a move-mask).
+#[inline(always)]
+pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count: &[T; N]) -> u32 {
+    let mut mask = 0u32;
+    for (i, &c) in count.iter().enumerate() {
+        mask |= u32::from(c != T::default()) << i;
+    }
+    mask
+}
+
 /// Visits the leaves the ray reaches, nearer children first, skipping anything that starts
 /// beyond `ray.t_max` (which the visitor may shrink).
-pub(super) fn visit_ray<const N: usize, F>(tree: &WideBvh<N>, ray: &mut Ray, mut visit: F)
+///
+/// The loop descends straight into the nearest child and pushes only the others: with one
+/// child hit (the common case deep in a tree) a node costs no stack traffic and no sort
+/// (Embree's BVH-N traversal does the same, Wald et al. 2014).
+pub(super) fn visit_ray<const N: usize, L, F>(tree: &WideBvh<N, L>, ray: &mut Ray, mut visit: F)
 where
+    L: WideLayout<N>,
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
     if tree.nodes.is_empty() || !ray.hits_aabb(&tree.bounds) {
@@ -114,43 +182,74 @@ where
     }
     let lanes = RayLanes::new(ray);
     let mut stack: TraversalStack<(u32, f32)> = TraversalStack::new();
-    stack.push((0, ray.t_min));
-    while let Some((node_index, t_enter)) = stack.pop() {
-        if t_enter > ray.t_max {
-            continue;
-        }
+    let mut node_index = 0u32;
+    loop {
         let node = &tree.nodes[node_index as usize];
-        let (mut mask, entry_t) = test_children(node, &lanes, ray.t_max);
-        // Gather the hit slots and sort them by entry distance (insertion sort: at most N).
-        let mut order = [(0.0f32, 0usize); N];
-        let mut hits = 0;
-        while mask != 0 {
-            let slot = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let item = (entry_t[slot], slot);
-            let mut j = hits;
-            while j > 0 && order[j - 1].0 > item.0 {
-                order[j] = order[j - 1];
-                j -= 1;
+        let (mask, entry_t) = node.intersect_slots(&lanes, ray.t_max);
+        let leaves = node.leaf_mask();
+        // Leaves first: their hits shrink the range before any subtree is chosen. They are
+        // few per node, and visiting them unsorted costs less than sorting them.
+        let mut leaf_hits = mask & leaves;
+        while leaf_hits != 0 {
+            let slot = leaf_hits.trailing_zeros() as usize;
+            leaf_hits &= leaf_hits - 1;
+            if entry_t[slot] > ray.t_max {
+                continue;
             }
-            order[j] = item;
-            hits += 1;
-        }
-        // Leaves now, nearest first, so their hits shrink the range before any subtree is
-        // entered; subtrees pushed farthest first, so the nearest is popped next.
-        for &(t, slot) in &order[..hits] {
-            if node.is_leaf(slot) && t <= ray.t_max {
-                let first = node.child[slot] as usize;
-                for &p in &tree.primitive_indices[first..first + node.count[slot] as usize] {
-                    if visit(p, ray).is_break() {
-                        return;
-                    }
+            let first = node.child(slot) as usize;
+            for &p in &tree.primitive_indices[first..first + node.count(slot) as usize] {
+                if visit(p, ray).is_break() {
+                    return;
                 }
             }
         }
-        for &(t, slot) in order[..hits].iter().rev() {
-            if !node.is_leaf(slot) && t <= ray.t_max {
-                stack.push((node.child[slot], t));
+        let mut inner = mask & !leaves;
+        // Children that now start beyond the shrunk range.
+        let mut kept = 0u32;
+        while inner != 0 {
+            let slot = inner.trailing_zeros();
+            inner &= inner - 1;
+            if entry_t[slot as usize] <= ray.t_max {
+                kept |= 1 << slot;
+            }
+        }
+        match kept.count_ones() {
+            0 => {
+                // Pop until an entry still starts within the (possibly shrunk) range.
+                loop {
+                    match stack.pop() {
+                        None => return,
+                        Some((next, t)) if t <= ray.t_max => {
+                            node_index = next;
+                            break;
+                        }
+                        Some(_) => {}
+                    }
+                }
+            }
+            1 => node_index = node.child(kept.trailing_zeros() as usize),
+            _ => {
+                // Sort the hit children farthest first (insertion sort: at most N), push all
+                // but the nearest, and descend into the nearest.
+                let mut order = [(0.0f32, 0u32); N];
+                let mut hits = 0;
+                while kept != 0 {
+                    let slot = kept.trailing_zeros() as usize;
+                    kept &= kept - 1;
+                    let item = (entry_t[slot], node.child(slot));
+                    let mut j = hits;
+                    while j > 0 && order[j - 1].0 < item.0 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = item;
+                    hits += 1;
+                }
+                for &(t, child) in &order[..hits - 1] {
+                    prefetch_node(&tree.nodes[child as usize]);
+                    stack.push((child, t));
+                }
+                node_index = order[hits - 1].1;
             }
         }
     }

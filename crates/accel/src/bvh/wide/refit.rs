@@ -1,36 +1,38 @@
 //! Refitting a wide tree in place after its primitives moved (skinned meshes, morphs).
 
-use super::WideBvh;
+use super::{WideBvh, WideLayout};
 use crate::Aabb;
 
-impl<const N: usize> WideBvh<N> {
+impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Recomputes every slot box from new primitive boxes, keeping the topology.
     ///
     /// The collapse appends children after their parent, so one reverse sweep over the nodes
-    /// sees every child before its parent: no recursion, no parent links, one pass. The tree's
-    /// quality is that of the pose it was built in; rebuild when motion is large.
+    /// sees every child before its parent: no recursion, no parent links, one pass, and a
+    /// child's box is read back from its already refitted slots (no scratch array to allocate
+    /// per refit). `primitive_bounds` is called exactly once per primitive, so it may also
+    /// update the primitive. The tree's quality is that of the pose it was built in; rebuild
+    /// when motion is large.
     pub fn refit(&mut self, mut primitive_bounds: impl FnMut(u32) -> Aabb) {
-        let mut node_boxes = vec![Aabb::EMPTY; self.nodes.len()];
         for n in (0..self.nodes.len()).rev() {
-            let mut node_box = Aabb::EMPTY;
-            for slot in 0..N {
-                let node = &self.nodes[n];
+            let node = &self.nodes[n];
+            let mut boxes = [Aabb::EMPTY; N];
+            for (slot, b) in boxes.iter_mut().enumerate() {
                 if !node.is_used(slot) {
                     continue;
                 }
-                let b = if node.is_leaf(slot) {
-                    let first = node.child[slot] as usize;
-                    self.primitive_indices[first..first + node.count[slot] as usize]
+                *b = if node.is_leaf(slot) {
+                    let first = node.child(slot) as usize;
+                    self.primitive_indices[first..first + node.count(slot) as usize]
                         .iter()
                         .fold(Aabb::EMPTY, |acc, &p| acc.union(&primitive_bounds(p)))
                 } else {
-                    node_boxes[node.child[slot] as usize]
+                    // The child's stored slots: for a quantized layout, the rounded-out boxes
+                    // its parent must enclose.
+                    self.nodes[node.child(slot) as usize].bounds()
                 };
-                self.nodes[n].set_child_aabb(slot, &b);
-                node_box = node_box.union(&b);
             }
-            node_boxes[n] = node_box;
+            self.nodes[n].set_child_boxes(&boxes);
         }
-        self.bounds = node_boxes.first().copied().unwrap_or(Aabb::EMPTY);
+        self.bounds = self.nodes.first().map_or(Aabb::EMPTY, L::bounds);
     }
 }

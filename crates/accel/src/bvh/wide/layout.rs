@@ -1,0 +1,96 @@
+//! What a wide tree needs from its node type, so one set of traversals serves the float and
+//! the quantized layouts.
+
+use super::ray::SlotRayTest;
+use super::{EMPTY_SLOT, WideNode};
+use crate::Aabb;
+use glam::Vec3A;
+
+/// A node layout for [`super::WideBvh`]: `N` child slots, each unused, a leaf (a run of
+/// primitives) or an interior child (a node index).
+///
+/// Implemented by [`WideNode`] (exact `f32` boxes) and [`super::QuantizedNode`] (8-bit boxes
+/// relative to the node, half the bytes). The ray test is a private part of the trait.
+pub trait WideLayout<const N: usize>:
+    Clone + Copy + core::fmt::Debug + Default + PartialEq + SlotRayTest<N>
+{
+    /// The most primitives one leaf slot can hold; larger binary leaves are split before the
+    /// collapse.
+    const MAX_LEAF_PRIMITIVES: u32;
+
+    /// The node with the same slots as a float node; its boxes enclose the float boxes.
+    fn from_float(node: &WideNode<N>) -> Self;
+
+    /// The box of slot `slot` (for quantized layouts, the decoded, enclosing box).
+    fn child_aabb(&self, slot: usize) -> Aabb;
+
+    /// Replaces every slot's box at once (quantized layouts re-derive their frame from all
+    /// of them); unused slots get [`Aabb::EMPTY`].
+    fn set_child_boxes(&mut self, boxes: &[Aabb; N]);
+
+    /// Node index (interior slot), first primitive slot (leaf) or [`EMPTY_SLOT`].
+    fn child(&self, slot: usize) -> u32;
+
+    /// Primitive count of a leaf slot; 0 for interior and unused slots.
+    fn count(&self, slot: usize) -> u32;
+
+    /// The union of the used slots' boxes.
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        (0..N)
+            .filter(|&s| self.is_used(s))
+            .fold(Aabb::EMPTY, |acc, s| acc.union(&self.child_aabb(s)))
+    }
+
+    /// True when slot `slot` holds something.
+    #[inline]
+    fn is_used(&self, slot: usize) -> bool {
+        self.child(slot) != EMPTY_SLOT
+    }
+
+    /// True when slot `slot` is a leaf.
+    #[inline]
+    fn is_leaf(&self, slot: usize) -> bool {
+        self.count(slot) > 0
+    }
+}
+
+impl<const N: usize> WideLayout<N> for WideNode<N> {
+    const MAX_LEAF_PRIMITIVES: u32 = u32::MAX;
+
+    fn from_float(node: &WideNode<N>) -> Self {
+        *node
+    }
+
+    #[inline]
+    fn child_aabb(&self, slot: usize) -> Aabb {
+        WideNode::child_aabb(self, slot)
+    }
+
+    fn set_child_boxes(&mut self, boxes: &[Aabb; N]) {
+        for (slot, b) in boxes.iter().enumerate() {
+            self.set_child_aabb(slot, b);
+        }
+    }
+
+    /// Unused slots hold the empty box, so a plain reduction over all lanes is the union.
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        let min = |a: &[f32; N]| a.iter().copied().fold(f32::INFINITY, f32::min);
+        let max = |a: &[f32; N]| a.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        Aabb::new(
+            Vec3A::new(min(&self.min_x), min(&self.min_y), min(&self.min_z)),
+            Vec3A::new(max(&self.max_x), max(&self.max_y), max(&self.max_z)),
+        )
+    }
+
+    #[inline]
+    fn child(&self, slot: usize) -> u32 {
+        self.child[slot]
+    }
+
+    #[inline]
+    fn count(&self, slot: usize) -> u32 {
+        self.count[slot]
+    }
+}
