@@ -7,6 +7,7 @@ mod ray_aabb;
 mod ray_sphere;
 mod sphere;
 mod triangle;
+mod triangle4;
 
 pub use aabb::Aabb;
 pub use frustum::{Containment, Frustum, Plane};
@@ -14,3 +15,4 @@ pub use ray::Ray;
 pub use ray_aabb::SLAB_WIDENING;
 pub use sphere::Sphere;
 pub use triangle::{Backfaces, Triangle, TriangleHit, WatertightRay, intersect_triangle_f64};
+pub use triangle4::{Triangle4, Triangle4Hits};

@@ -93,16 +93,16 @@ impl Triangle {
 /// paper prescribes, so that rounding cannot break a tie the wrong way.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
-    origin: Vec3A,
-    t_min: f32,
-    t_max: f32,
+    pub(super) origin: Vec3A,
+    pub(super) t_min: f32,
+    pub(super) t_max: f32,
     /// Permuted axes: `kz` is the dominant direction axis; `kx`, `ky` keep the winding.
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    shear_x: f32,
-    shear_y: f32,
-    shear_z: f32,
+    pub(super) kx: usize,
+    pub(super) ky: usize,
+    pub(super) kz: usize,
+    pub(super) shear_x: f32,
+    pub(super) shear_y: f32,
+    pub(super) shear_z: f32,
 }
 
 impl WatertightRay {

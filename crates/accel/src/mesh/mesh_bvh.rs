@@ -1,6 +1,7 @@
 //! The bottom level: an 8-wide BVH over one mesh's triangles.
 
 use super::MeshHit;
+use super::packets::{LeafPackets, triangle_bounds};
 use crate::bvh::wide::Bvh8;
 use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery, WatertightRay};
 use core::fmt;
@@ -61,9 +62,10 @@ impl std::error::Error for MeshError {}
 /// An 8-wide BVH over the triangles of one indexed mesh, answering exact (watertight) ray
 /// queries in the mesh's own space.
 ///
-/// Triangles are copied into leaf order at build time, so a leaf's triangles sit next to each
-/// other in memory and a ray reads them in one sweep instead of chasing the index buffer.
-/// Triangles with non-finite corners are left out (they cannot be hit).
+/// Triangles are copied into leaf order at build time, four to a SIMD packet
+/// ([`crate::Triangle4`]): a leaf's triangles sit next to each other in memory and a ray tests
+/// them four at a time instead of chasing the index buffer. Triangles with non-finite corners
+/// are left out (they cannot be hit).
 ///
 /// ```
 /// use accel::{Backfaces, Ray};
@@ -78,18 +80,19 @@ impl std::error::Error for MeshError {}
 /// ```
 #[derive(Clone, Debug)]
 pub struct MeshBvh {
-    tree: Bvh8,
-    /// Corners of each triangle, in leaf order.
-    triangles: Vec<[Vec3A; 3]>,
-    /// Vertex indices of each triangle, in leaf order (for refits).
-    indices: Vec<[u32; 3]>,
-    /// The caller's triangle index of each leaf-order slot.
-    triangle_ids: Vec<u32>,
+    /// The tree over packets: its primitive ids are packet indices.
+    tree: MeshTree,
+    packets: LeafPackets,
+    triangle_count: usize,
     vertex_count: usize,
 }
 
+/// The wide layout the mesh tree uses.
+pub type MeshTree = Bvh8;
+
 impl MeshBvh {
-    /// Builds with the default configuration (binned SAH, 8-wide).
+    /// Builds with the default configuration (binned SAH, leaves of up to 8 triangles chosen
+    /// by cost, collapsed to 8-wide).
     pub fn new(vertices: &[Vec3], indices: &[u32]) -> Result<Self, MeshError> {
         Self::with_config(vertices, indices, &BuildConfig::default())
     }
@@ -116,24 +119,13 @@ impl MeshBvh {
             .chunks_exact(3)
             .map(|t| triangle_bounds(&corners(t)))
             .collect();
-        let bvh = Bvh::build(&boxes, config);
-        let triangle_ids = bvh.primitive_indices().to_vec();
-        let triangles = triangle_ids
-            .iter()
-            .map(|&t| corners(&indices[3 * t as usize..3 * t as usize + 3]))
-            .collect();
-        let leaf_indices = triangle_ids
-            .iter()
-            .map(|&t| [0, 1, 2].map(|k| indices[3 * t as usize + k]))
-            .collect();
-        let mut tree = Bvh8::from_bvh(&bvh);
-        // Leaves now name leaf-order slots, so a traversal reads `triangles` sequentially.
-        tree.primitive_indices = (0..triangle_ids.len() as u32).collect();
+        let mut bvh = Bvh::build(&boxes, config);
+        let triangle_count = bvh.primitive_count();
+        let packets = LeafPackets::pack(&mut bvh, vertices, indices);
         Ok(Self {
-            tree,
-            triangles,
-            indices: leaf_indices,
-            triangle_ids,
+            tree: MeshTree::from_bvh(&bvh),
+            packets,
+            triangle_count,
             vertex_count: vertices.len(),
         })
     }
@@ -145,29 +137,24 @@ impl MeshBvh {
 
     /// Number of triangles in the tree.
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.triangle_count
     }
 
-    /// The tree (its primitive ids are leaf-order slots, see [`MeshBvh::triangle_index`]).
-    pub fn tree(&self) -> &Bvh8 {
+    /// The tree; its primitive ids are packets of four triangles.
+    pub fn tree(&self) -> &MeshTree {
         &self.tree
-    }
-
-    /// The caller's triangle index of a leaf-order slot.
-    pub fn triangle_index(&self, slot: u32) -> u32 {
-        self.triangle_ids[slot as usize]
     }
 
     /// Memory held, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.tree.memory_bytes() + self.triangles.len() * (48 + 12 + 4)
+        self.tree.memory_bytes() + self.packets.memory_bytes()
     }
 
-    fn hit_record(&self, slot: u32, hit: crate::TriangleHit) -> MeshHit {
-        let [a, b, c] = self.triangles[slot as usize];
+    fn hit_record(&self, packet: u32, lane: usize, hit: crate::TriangleHit) -> MeshHit {
+        let [a, b, c] = self.packets.corners(packet, lane);
         MeshHit {
             t: hit.t,
-            triangle: self.triangle_ids[slot as usize],
+            triangle: self.packets.triangles[packet as usize][lane],
             barycentrics: hit.barycentrics(),
             geometric_normal: (b - a).cross(c - a).normalize_or_zero(),
             front_face: hit.front_face,
@@ -177,26 +164,28 @@ impl MeshBvh {
     /// The closest hit along the ray, or `None`.
     pub fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
         let mut wt = WatertightRay::new(ray);
-        let mut best: Option<(u32, crate::TriangleHit)> = None;
-        self.tree.cast_ray(ray, |slot, r| {
-            let [a, b, c] = self.triangles[slot as usize];
+        let mut best: Option<(u32, usize, crate::TriangleHit)> = None;
+        self.tree.cast_ray(ray, |packet, r| {
             wt.set_t_max(r.t_max);
-            let h = wt.intersect_vertices(a, b, c, backfaces)?;
-            if best.is_none_or(|(_, b)| h.t < b.t) {
-                best = Some((slot, h));
+            let (lane, h) = wt
+                .intersect4(&self.packets.packets[packet as usize], backfaces)
+                .closest()?;
+            if best.is_none_or(|(_, _, b)| h.t < b.t) {
+                best = Some((packet, lane, h));
             }
             Some(h.t)
         })?;
-        best.map(|(slot, h)| self.hit_record(slot, h))
+        best.map(|(packet, lane, h)| self.hit_record(packet, lane, h))
     }
 
     /// True when anything blocks the ray (shadow rays: stops at the first hit found).
     pub fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
         let wt = WatertightRay::new(ray);
         self.tree
-            .cast_ray_any(ray, |slot, _| {
-                let [a, b, c] = self.triangles[slot as usize];
-                wt.intersect_vertices(a, b, c, backfaces).is_some()
+            .cast_ray_any(ray, |packet, _| {
+                wt.intersect4(&self.packets.packets[packet as usize], backfaces)
+                    .mask
+                    != 0
             })
             .is_some()
     }
@@ -206,36 +195,36 @@ impl MeshBvh {
         let wt = WatertightRay::new(ray);
         let start = out.len();
         // An any-hit traversal that never accepts visits every leaf the ray reaches.
-        self.tree.cast_ray_any(ray, |slot, _| {
-            let [a, b, c] = self.triangles[slot as usize];
-            if let Some(h) = wt.intersect_vertices(a, b, c, backfaces) {
-                out.push(self.hit_record(slot, h));
+        self.tree.cast_ray_any(ray, |packet, _| {
+            let hits = wt.intersect4(&self.packets.packets[packet as usize], backfaces);
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                out.push(self.hit_record(packet, lane, hits.hit(lane)));
             }
             false
         });
         out[start..].sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
     }
 
-    /// The box of a leaf-order slot's triangle; empty when a corner is not finite, so such a
-    /// triangle (a NaN in a skinned pose, say) drops out of the tree instead of poisoning it.
-    fn triangle_aabb(&self, slot: u32) -> Aabb {
-        triangle_bounds(&self.triangles[slot as usize])
-    }
-
     /// Calls `visit(triangle index)` for each triangle whose box overlaps `aabb`.
     pub fn for_each_triangle_overlapping(&self, aabb: &Aabb, mut visit: impl FnMut(u32)) {
-        self.tree.for_each_overlapping_aabb(aabb, |slot| {
-            if self.triangle_aabb(slot).intersects_aabb(aabb) {
-                visit(self.triangle_ids[slot as usize]);
+        self.tree.for_each_overlapping_aabb(aabb, |packet| {
+            for lane in self.packets.used_lanes(packet) {
+                if self.packets.lane_bounds(packet, lane).intersects_aabb(aabb) {
+                    visit(self.packets.triangles[packet as usize][lane]);
+                }
             }
             ControlFlow::Continue(())
         });
     }
 
-    /// Checks the tree against the mesh's current triangles (see [`Bvh8::validate`]).
+    /// Checks the tree against the mesh's current triangles (see
+    /// [`crate::bvh::wide::WideBvh::validate`]): every packet reachable once, inside its leaf.
     pub fn validate(&self) -> Result<(), crate::bvh::validate::ValidationError> {
-        let boxes: Vec<Aabb> = (0..self.triangles.len() as u32)
-            .map(|s| self.triangle_aabb(s))
+        let boxes: Vec<Aabb> = (0..self.packets.packets.len() as u32)
+            .map(|p| self.packets.packet_bounds(p))
             .collect();
         self.tree.validate(&boxes)
     }
@@ -249,20 +238,9 @@ impl MeshBvh {
                 got: vertices.len(),
             });
         }
-        for (tri, idx) in self.triangles.iter_mut().zip(&self.indices) {
-            *tri = idx.map(|i| Vec3A::from(vertices[i as usize]));
-        }
-        let triangles = &self.triangles;
+        let packets = &mut self.packets;
         self.tree
-            .refit(|slot| triangle_bounds(&triangles[slot as usize]));
+            .refit(|packet| packets.move_packet(packet, vertices));
         Ok(())
-    }
-}
-
-fn triangle_bounds(corners: &[Vec3A; 3]) -> Aabb {
-    if corners.iter().all(|v| v.is_finite()) {
-        Aabb::from_points(*corners)
-    } else {
-        Aabb::EMPTY
     }
 }

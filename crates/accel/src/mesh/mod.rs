@@ -6,6 +6,7 @@
 
 mod hit;
 mod mesh_bvh;
+mod packets;
 mod scene;
 
 pub use hit::MeshHit;

@@ -1,0 +1,115 @@
+//! A mesh's triangles in leaf order, four to a SIMD packet.
+
+use crate::bvh::Bvh;
+use crate::{Aabb, Triangle4};
+use glam::{Vec3, Vec3A};
+
+/// Marks an unused packet lane.
+pub(super) const NO_TRIANGLE: u32 = u32::MAX;
+
+/// The triangles of a mesh BVH, regrouped so each leaf is a run of whole [`Triangle4`]
+/// packets: a ray tests a leaf four triangles per instruction, and a leaf's triangles sit
+/// together in memory instead of being gathered through the index buffer.
+#[derive(Clone, Debug, Default)]
+pub(super) struct LeafPackets {
+    /// The corners, four triangles per packet.
+    pub packets: Vec<Triangle4>,
+    /// The caller's triangle index of each lane, or [`NO_TRIANGLE`].
+    pub triangles: Vec<[u32; 4]>,
+    /// The vertex indices of each lane (for refits); unused lanes hold zeros.
+    pub vertex_indices: Vec<[[u32; 3]; 4]>,
+}
+
+impl LeafPackets {
+    /// Packs the leaves of `bvh` (built over the mesh's triangles) and rewrites the tree to
+    /// name packets instead of triangles: a leaf of `n` triangles becomes `ceil(n / 4)`
+    /// packets, in the tree's primitive order.
+    pub fn pack(bvh: &mut Bvh, vertices: &[Vec3], indices: &[u32]) -> Self {
+        let mut leaves: Vec<usize> = (0..bvh.nodes.len())
+            .filter(|&n| bvh.nodes[n].is_leaf())
+            .collect();
+        leaves.sort_unstable_by_key(|&n| bvh.nodes[n].first);
+        let mut out = Self::default();
+        for n in leaves {
+            let node = &mut bvh.nodes[n];
+            let run =
+                &bvh.primitive_indices[node.first as usize..(node.first + node.count) as usize];
+            node.first = out.packets.len() as u32;
+            node.count = run.len().div_ceil(4) as u32;
+            for group in run.chunks(4) {
+                let mut packet = Triangle4::default();
+                let mut ids = [NO_TRIANGLE; 4];
+                let mut lane_indices = [[0u32; 3]; 4];
+                for (lane, &t) in group.iter().enumerate() {
+                    let tri = [0, 1, 2].map(|k| indices[3 * t as usize + k]);
+                    packet.set(lane, tri.map(|i| Vec3A::from(vertices[i as usize])));
+                    ids[lane] = t;
+                    lane_indices[lane] = tri;
+                }
+                out.packets.push(packet);
+                out.triangles.push(ids);
+                out.vertex_indices.push(lane_indices);
+            }
+        }
+        bvh.primitive_indices = (0..out.packets.len() as u32).collect();
+        out
+    }
+
+    /// The corners of lane `lane` of packet `packet`.
+    #[inline]
+    pub fn corners(&self, packet: u32, lane: usize) -> [Vec3A; 3] {
+        self.packets[packet as usize].get(lane)
+    }
+
+    /// The lanes of a packet that hold a triangle.
+    #[inline]
+    pub fn used_lanes(&self, packet: u32) -> impl Iterator<Item = usize> + '_ {
+        let ids = &self.triangles[packet as usize];
+        (0..4).filter(move |&l| ids[l] != NO_TRIANGLE)
+    }
+
+    /// The box of one lane's triangle; empty when a corner is not finite, so such a triangle
+    /// (a NaN in a skinned pose, say) drops out of the tree instead of poisoning it.
+    pub fn lane_bounds(&self, packet: u32, lane: usize) -> Aabb {
+        triangle_bounds(&self.corners(packet, lane))
+    }
+
+    /// The box of a packet's triangles.
+    #[inline]
+    pub fn packet_bounds(&self, packet: u32) -> Aabb {
+        self.packets[packet as usize].bounds()
+    }
+
+    /// Rewrites packet `packet`'s used lanes from new vertex positions and returns its new
+    /// box (a refit calls this once per packet, touching each packet once).
+    #[inline]
+    pub fn move_packet(&mut self, packet: u32, vertices: &[Vec3]) -> Aabb {
+        let p = packet as usize;
+        let (ids, lane_indices) = (&self.triangles[p], &self.vertex_indices[p]);
+        let tri = &mut self.packets[p];
+        let mut bounds = Aabb::EMPTY;
+        for lane in (0..4).filter(|&l| ids[l] != NO_TRIANGLE) {
+            let corners = lane_indices[lane].map(|i| Vec3A::from(vertices[i as usize]));
+            tri.set(lane, corners);
+            // From the corners in registers: reading the packet back right after its
+            // lane-by-lane stores would stall on store forwarding.
+            bounds = bounds.union(&triangle_bounds(&corners));
+        }
+        bounds
+    }
+
+    /// Memory held, in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.packets.len()
+            * (size_of::<Triangle4>() + size_of::<[u32; 4]>() + size_of::<[[u32; 3]; 4]>())
+    }
+}
+
+/// The box of a triangle's corners, or [`Aabb::EMPTY`] when one is not finite.
+pub(super) fn triangle_bounds(corners: &[Vec3A; 3]) -> Aabb {
+    if corners.iter().all(|v| v.is_finite()) {
+        Aabb::from_points(*corners)
+    } else {
+        Aabb::EMPTY
+    }
+}
