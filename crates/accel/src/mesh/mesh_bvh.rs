@@ -83,6 +83,9 @@ pub struct MeshBvh {
     /// The tree over packets: its primitive ids are packet indices.
     tree: MeshTree,
     packets: LeafPackets,
+    /// The packet boxes of the last refit, kept so refits do not allocate (and fault in) a
+    /// fresh array each frame.
+    refit_boxes: Vec<Aabb>,
     triangle_count: usize,
     vertex_count: usize,
 }
@@ -125,6 +128,7 @@ impl MeshBvh {
         Ok(Self {
             tree: MeshTree::from_bvh(&bvh),
             packets,
+            refit_boxes: Vec::new(),
             triangle_count,
             vertex_count: vertices.len(),
         })
@@ -147,7 +151,9 @@ impl MeshBvh {
 
     /// Memory held, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.tree.memory_bytes() + self.packets.memory_bytes()
+        self.tree.memory_bytes()
+            + self.packets.memory_bytes()
+            + self.refit_boxes.capacity() * size_of::<Aabb>()
     }
 
     fn hit_record(&self, packet: u32, lane: usize, hit: crate::TriangleHit) -> MeshHit {
@@ -238,9 +244,14 @@ impl MeshBvh {
                 got: vertices.len(),
             });
         }
-        let packets = &mut self.packets;
-        self.tree
-            .refit(|packet| packets.move_packet(packet, vertices));
+        // Two passes: the packets are rewritten in memory order (one sequential stream over
+        // packets and vertex indices) and their boxes kept; the tree sweep then reads boxes.
+        let boxes = &mut self.refit_boxes;
+        boxes.clear();
+        boxes.extend(
+            (0..self.packets.packets.len() as u32).map(|p| self.packets.move_packet(p, vertices)),
+        );
+        self.tree.refit(|packet| boxes[packet as usize]);
         Ok(())
     }
 }

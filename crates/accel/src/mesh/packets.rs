@@ -81,7 +81,7 @@ impl LeafPackets {
     }
 
     /// Rewrites packet `packet`'s used lanes from new vertex positions and returns its new
-    /// box (a refit calls this once per packet, touching each packet once).
+    /// box.
     #[inline]
     pub fn move_packet(&mut self, packet: u32, vertices: &[Vec3]) -> Aabb {
         let p = packet as usize;
