@@ -3,7 +3,7 @@
 mod scenes;
 
 use accel::mesh::{Instance, InstancedScene, MeshBvh};
-use accel::{Backfaces, Ray, WatertightRay};
+use accel::{Aabb, Backfaces, Ray, WatertightRay};
 use glam::{Affine3A, Quat, Vec3, Vec3A};
 use scenes::Rng;
 use std::sync::Arc;
@@ -103,6 +103,22 @@ fn mesh_bvh_matches_brute_force() {
                 let got_all: Vec<(f32, u32)> = all.iter().map(|h| (h.t, h.triangle)).collect();
                 assert_eq!(got_all, want);
             }
+        }
+        // Box overlap: the triangles whose boxes overlap, as a set.
+        for _ in 0..200 {
+            let c = rng.vec3(-8.0, 8.0);
+            let query = Aabb::new(c, c + rng.vec3(0.0, 4.0));
+            let mut got = Vec::new();
+            bvh.for_each_triangle_overlapping(&query, |t| got.push(t));
+            got.sort_unstable();
+            let want: Vec<u32> = (0..mesh.indices.len() as u32 / 3)
+                .filter(|&t| {
+                    let corners =
+                        [0, 1, 2].map(|k| mesh.vertices[mesh.indices[3 * t as usize + k] as usize]);
+                    Aabb::from_points(corners).intersects_aabb(&query)
+                })
+                .collect();
+            assert_eq!(got, want, "mesh {mi}");
         }
     }
 }
