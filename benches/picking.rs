@@ -26,8 +26,10 @@ impl Rng {
 }
 
 /// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
-/// of 1 entity per 64 cubic units, and rays aimed through it.
-fn world(n: usize) -> (App, Vec<Ray3d>) {
+/// of 1 entity per 64 cubic units, and rays aimed through it. `is_static` marks every entity
+/// [`AccelStatic`] (scenery: the flat static tree) instead of leaving it dynamic (the dynamic
+/// tree, as for entities that may move).
+fn world(n: usize, is_static: bool) -> (App, Vec<Ray3d>) {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -66,9 +68,24 @@ fn world(n: usize) -> (App, Vec<Ray3d>) {
             (t, Mesh3d(meshes[i % 2].clone()))
         })
         .collect();
-    app.world_mut().spawn_batch(batch);
+    if is_static {
+        app.world_mut()
+            .spawn_batch(batch.into_iter().map(|(t, m)| (t, m, AccelStatic)));
+    } else {
+        app.world_mut().spawn_batch(batch);
+    }
     app.update();
     app.update();
+    // Steady state: the dynamic tree's first rebuild (started in the background once the
+    // spawns are in) is installed before anything is timed.
+    for _ in 0..500 {
+        let dynamic = app.world().resource::<AccelTrees>().dynamic();
+        if dynamic.is_empty() || (dynamic.rebuild_count() > 0 && !dynamic.rebuild_in_flight()) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        app.update();
+    }
     let rays = (0..1024)
         .map(|_| {
             let origin = rng.vec3(half * 1.2);
@@ -82,15 +99,26 @@ fn world(n: usize) -> (App, Vec<Ray3d>) {
 fn picking(c: &mut Criterion) {
     let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
     for n in [10_000, 100_000] {
-        let (mut app, rays) = world(n);
+        let mut group = c.benchmark_group(format!("picking/{n}"));
+        group.sample_size(10);
+        let mut i = 0;
+        {
+            let (mut app, rays) = world(n, true);
+            let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
+            let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
+            group.bench_function("bevy_accel AccelRayCast, static entities", |b| {
+                b.iter(|| {
+                    i = (i + 1) % rays.len();
+                    black_box(ray_cast.cast_ray(rays[i], &settings).len())
+                })
+            });
+        }
+        let (mut app, rays) = world(n, false);
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
         let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
         let world = app.world();
-        let mut group = c.benchmark_group(format!("picking/{n}"));
-        group.sample_size(10);
         let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
-        let mut i = 0;
-        group.bench_function("bevy_accel AccelRayCast", |b| {
+        group.bench_function("bevy_accel AccelRayCast, dynamic entities", |b| {
             b.iter(|| {
                 i = (i + 1) % rays.len();
                 black_box(ray_cast.cast_ray(rays[i], &settings).len())

@@ -96,6 +96,7 @@ pub(crate) fn cull_views_with_trees(
     mut stats: ResMut<CullingStats>,
     mut thread_queues: Local<Parallel<TypeIdMap<Vec<Entity>>>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
+    mut found: Local<Vec<(Entity, bool)>>,
 ) {
     let start = Instant::now();
     let mut s = CullingStats::default();
@@ -182,18 +183,29 @@ pub(crate) fn cull_views_with_trees(
                 consider(entity, true, &mut s);
             }
         } else {
+            // The tree finds entities in spatial order, which is random in the ECS tables.
+            // Deciding them in entity order instead makes the component reads nearly
+            // sequential for entities spawned together (a level, a crowd), and the visible
+            // lists come out sorted, as Bevy needs them, at the cost of one sort that the
+            // lists needed anyway.
+            found.clear();
             trees
                 .query()
                 .for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
                     if let Some(entity) = trees.entity(slot) {
-                        consider(entity, containment != Containment::Inside, &mut s);
+                        found.push((entity, containment != Containment::Inside));
                     }
                 });
+            found.sort_unstable_by_key(|&(entity, _)| entity.index_u32());
+            for &(entity, exact) in found.iter() {
+                consider(entity, exact, &mut s);
+            }
         }
         for entity in untracked.iter().chain(rejected.iter()) {
             consider(entity, true, &mut s);
         }
-        // Bevy diffs these lists in O(n) and needs them sorted.
+        // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
+        // already; the sort finds the runs in linear time).
         for list in visible_entities.entities.values_mut() {
             list.sort_unstable();
         }

@@ -263,8 +263,10 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         // distance); other hits are kept without shrinking it, as Bevy keeps collecting past
         // hits whose entity does not pass `early_exit_test`.
         let blocking = trees.query().cast_ray(&world_ray, |slot, r| {
-            let entity = trees.entity(slot)?;
+            // The exact box first: most candidates of a leaf fail it, and they then cost no
+            // entity lookup.
             let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
+            let entity = trees.entity(slot)?;
             let hit = match target {
                 Target::Meshes => {
                     let (inherited, view, aabb, transform, mesh2d, mesh3d, simplified, both) =

@@ -5,10 +5,14 @@
 //! twice by hand. [`StaticDynamicPair`] presents both as one [`BoundingTree`] under a virtual
 //! root, so every query is one traversal through the shared code of [`crate::query::binary`]
 //! (a closest hit found in one tree prunes the other), while the static tree is never refit.
+//! Rays, the hottest query (picking, the preview), walk the static tree in its 8-wide form
+//! instead, then the dynamic tree, the nearer first so its hits prune the other.
 
 use super::DynamicBvh;
-use crate::query::BoundingTree;
-use crate::{Aabb, Bvh};
+use crate::bvh::wide::Bvh8;
+use crate::query::{BoundingTree, RayWalk};
+use crate::{Aabb, Bvh, Ray};
+use core::ops::ControlFlow;
 
 /// Static node ids are tagged with the top bit (dynamic node ids stay below 2^31).
 const STATIC_TAG: u32 = 1 << 31;
@@ -47,6 +51,8 @@ const VIRTUAL_ROOT: u32 = u32::MAX;
 #[derive(Clone, Debug, Default)]
 pub struct StaticDynamicPair {
     static_tree: Bvh,
+    /// The static tree collapsed to 8-wide nodes, for rays (same primitive ids).
+    static_wide: Bvh8,
     dynamic: DynamicBvh,
 }
 
@@ -54,6 +60,7 @@ impl StaticDynamicPair {
     /// The pair of a static tree and a dynamic one.
     pub fn new(static_tree: Bvh, dynamic: DynamicBvh) -> Self {
         Self {
+            static_wide: Bvh8::from_bvh(&static_tree),
             static_tree,
             dynamic,
         }
@@ -67,6 +74,7 @@ impl StaticDynamicPair {
 
     /// Replaces the static tree, returning the old one.
     pub fn set_static(&mut self, static_tree: Bvh) -> Bvh {
+        self.static_wide = Bvh8::from_bvh(&static_tree);
         core::mem::replace(&mut self.static_tree, static_tree)
     }
 
@@ -146,4 +154,32 @@ impl BoundingTree for StaticDynamicPair {
     }
 }
 
-crate::impl_spatial_query_for_binary_tree!(StaticDynamicPair);
+impl RayWalk for StaticDynamicPair {
+    fn walk_ray<V>(&self, ray: &mut Ray, mut visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        let entry = |bounds: Aabb| ray.intersect_aabb(&bounds).unwrap_or(f32::INFINITY);
+        let static_first = entry(self.static_wide.bounds()) <= entry(self.dynamic.bounds());
+        // A visitor that stops the walk must stop the second tree's walk too.
+        let stopped = core::cell::Cell::new(false);
+        let mut visit = |p: u32, r: &mut Ray| {
+            let flow = visit(p, r);
+            stopped.set(flow.is_break());
+            flow
+        };
+        if static_first {
+            self.static_wide.walk_ray(ray, &mut visit);
+            if !stopped.get() {
+                self.dynamic.walk_ray(ray, &mut visit);
+            }
+        } else {
+            self.dynamic.walk_ray(ray, &mut visit);
+            if !stopped.get() {
+                self.static_wide.walk_ray(ray, &mut visit);
+            }
+        }
+    }
+}
+
+crate::impl_spatial_query_for_binary_tree!(@queries StaticDynamicPair);

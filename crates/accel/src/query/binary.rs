@@ -274,7 +274,8 @@ impl<T: BoundingTree + ?Sized> BoundingTree for Subtree<'_, T> {
 }
 
 /// Implements [`super::RayWalk`] and [`super::SpatialQuery`] for a [`BoundingTree`] through the traversals of this
-/// module, so every binary tree answers queries with the same code.
+/// module, so every binary tree answers queries with the same code. The `@queries` form
+/// leaves out `RayWalk`, for a tree that walks rays its own way.
 #[macro_export]
 macro_rules! impl_spatial_query_for_binary_tree {
     ($ty:ty) => {
@@ -286,7 +287,9 @@ macro_rules! impl_spatial_query_for_binary_tree {
                 $crate::query::binary::visit_ray_front_to_back(self, ray, visit)
             }
         }
-
+        $crate::impl_spatial_query_for_binary_tree!(@queries $ty);
+    };
+    (@queries $ty:ty) => {
         impl $crate::SpatialQuery for $ty {
             fn for_each_overlapping_aabb<F>(&self, aabb: &$crate::Aabb, visit: F)
             where
