@@ -25,6 +25,10 @@ pub struct AccelSettings {
     pub fat_margin: f32,
     /// Growth of each side of a dynamic leaf as a fraction of its size.
     pub relative_fat_margin: f32,
+    /// When a moving entity outgrows its leaf, the new leaf also reaches this many times its
+    /// last step ahead along its motion, so an entity moving steadily costs tree work every
+    /// few frames instead of every frame. 0 turns it off.
+    pub motion_prediction: f32,
     /// Time the dynamic tree's optimiser may spend per frame, in microseconds.
     pub optimize_budget_micros: u32,
     /// Rebuild the dynamic tree when its SAH cost passes this multiple of a fresh build's.
@@ -41,6 +45,7 @@ impl Default for AccelSettings {
             watch_static_motion: false,
             fat_margin: 0.1,
             relative_fat_margin: 0.05,
+            motion_prediction: 2.0,
             optimize_budget_micros: 500,
             rebuild_threshold: 1.3,
             background_rebuild: true,

@@ -242,6 +242,7 @@ pub(crate) fn maintain_trees(
     let config = DynamicBvhConfig {
         margin: settings.fat_margin,
         relative_margin: settings.relative_fat_margin,
+        motion_prediction: settings.motion_prediction,
         optimize_budget: settings.optimize_budget(),
         rebuild_threshold: settings.rebuild_threshold,
         background_rebuild: settings.background_rebuild,

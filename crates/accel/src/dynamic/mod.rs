@@ -77,7 +77,7 @@ use crate::query::BoundingTree;
 use crate::{Aabb, SahCosts};
 use core::time::Duration;
 use glam::Vec3A;
-use node::{Arena, FLAG_DIRTY, NULL};
+use node::{Arena, FLAG_DIRTY, FLAG_JUMPED, NULL};
 use std::fmt;
 
 /// A stable reference to one leaf of a [`DynamicBvh`]: valid from `insert` until `remove`.
@@ -143,6 +143,11 @@ pub struct DynamicBvhConfig {
     /// Further growth of each side as a fraction of the box's extent on that axis, so large
     /// objects (whose absolute motion is typically larger) get proportionally fatter leaves.
     pub relative_margin: f32,
+    /// When a leaf outgrows its fat box, the new fat box also reaches ahead along the leaf's
+    /// last displacement, by this multiple of it (Box2D 2.4's `b2_aabbMultiplier`, 4 there):
+    /// a steadily moving object then leaves its fat box every few steps instead of every
+    /// step, and each escape costs a refit of its path. 0 turns it off.
+    pub motion_prediction: f32,
     /// Apply Kopta 2012 local rotations on insertion and on refit paths.
     pub rotations: bool,
     /// Wall-clock budget of the optimiser per [`DynamicBvh::maintain`] call.
@@ -165,6 +170,7 @@ impl Default for DynamicBvhConfig {
         Self {
             margin: 0.1,
             relative_margin: 0.05,
+            motion_prediction: 2.0,
             rotations: true,
             optimize_budget: Duration::from_micros(800),
             optimize_max_reinsertions: 512,
@@ -181,6 +187,21 @@ impl DynamicBvhConfig {
     #[inline]
     pub fn fatten(&self, tight: &Aabb) -> Aabb {
         tight.expanded(Vec3A::splat(self.margin) + tight.extent() * self.relative_margin)
+    }
+
+    /// The fat box for a leaf that moved from `previous` to `tight`: [`Self::fatten`], reaching
+    /// further ahead along the displacement by [`Self::motion_prediction`] times it.
+    #[inline]
+    pub fn fatten_moving(&self, previous: &Aabb, tight: &Aabb) -> Aabb {
+        let fat = self.fatten(tight);
+        let ahead = (tight.center() - previous.center()) * self.motion_prediction;
+        if !ahead.is_finite() {
+            return fat;
+        }
+        Aabb::new(
+            fat.min + ahead.min(Vec3A::ZERO),
+            fat.max + ahead.max(Vec3A::ZERO),
+        )
     }
 }
 
@@ -360,7 +381,7 @@ impl DynamicBvh {
         if !bounds.is_finite() {
             return Err(DynamicBvhError::InvalidBounds);
         }
-        self.tight[leaf as usize] = bounds;
+        let previous = core::mem::replace(&mut self.tight[leaf as usize], bounds);
         let fat = self.arena.nodes[leaf as usize].aabb;
         if fat.contains_aabb(&bounds) {
             // A box that shrank to a small part of its fat box would keep the tree loose for
@@ -370,21 +391,18 @@ impl DynamicBvh {
                 return Ok(false);
             }
         }
-        let new_fat = self.config.fatten(&bounds);
+        let new_fat = self.config.fatten_moving(&previous, &bounds);
         if !new_fat.is_finite() {
             return Err(DynamicBvhError::InvalidBounds);
         }
-        if !fat.intersects_aabb(&new_fat) {
-            // A jump clear of the old fat box (a teleport, a respawn): refitting would stretch
-            // every ancestor across both places and rot the tree for every later query, so
-            // the leaf is reinserted where the SAH wants it now (Box2D's `b2MoveProxy`).
-            self.detach(leaf);
-            self.set_aabb(leaf, new_fat);
-            self.attach(leaf);
-            return Ok(true);
-        }
+        // A jump clear of the old fat box (a teleport, a respawn) is flagged: the refit
+        // reinserts such leaves when they are few (see `refit`).
+        let jumped = !fat.intersects_aabb(&new_fat);
         self.set_aabb(leaf, new_fat);
         let n = &mut self.arena.nodes[leaf as usize];
+        if jumped {
+            n.flags |= FLAG_JUMPED;
+        }
         if n.flags & FLAG_DIRTY == 0 {
             n.flags |= FLAG_DIRTY;
             self.dirty.push(leaf);

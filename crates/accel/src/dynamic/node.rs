@@ -19,6 +19,9 @@ pub(crate) const FLAG_QUEUED: u32 = 1;
 pub(crate) const FLAG_DIRTY: u32 = 2;
 /// Set on leaves placed by a rebuild, so the leaves the rebuild did not know are found.
 pub(crate) const FLAG_PLACED: u32 = 4;
+/// Set on dirty leaves whose new fat box lies clear of the old one (a teleport, a respawn):
+/// the refit decides whether to reinsert them.
+pub(crate) const FLAG_JUMPED: u32 = 8;
 
 /// Arena slots are capped below 2^31: the static/dynamic pair tags static node ids with the
 /// top bit, so dynamic ids must leave it clear.

@@ -1,7 +1,7 @@
 //! The batched refit: only the paths above moved leaves, each node once, bottom-up.
 
 use super::DynamicBvh;
-use super::node::{FLAG_DIRTY, FLAG_QUEUED, NULL};
+use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL};
 
 impl DynamicBvh {
     /// Brings every ancestor of the leaves updated since the last call up to date, and
@@ -15,10 +15,18 @@ impl DynamicBvh {
     /// [`DynamicBvhConfig::rotations`](super::DynamicBvhConfig::rotations) every recomputed
     /// node is also offered a Kopta 2012 rotation: motion is exactly what makes a node's
     /// children overlap, and fixing it where it happens is cheaper than finding it later.
+    ///
+    /// Leaves that jumped clear of their old fat box are reinserted first, where the SAH wants
+    /// them now (Box2D's `b2MoveProxy`): refitting would stretch every ancestor across both
+    /// places and rot the tree for every later query. That holds while such jumps are rare;
+    /// when more than 1/64 of the leaves jumped in one batch (a whole crowd moving fast), one
+    /// SAH insertion each would cost far more than refitting them all and letting the quality
+    /// monitor decide on a rebuild, so they are refit like the rest.
     pub fn refit(&mut self) -> usize {
         if self.dirty.is_empty() {
             return 0;
         }
+        self.reinsert_jumped_leaves();
         let mut queue = core::mem::take(&mut self.refit_queue);
         let mut sorted = core::mem::take(&mut self.refit_sorted);
         let mut counts = core::mem::take(&mut self.height_counts);
@@ -66,7 +74,10 @@ impl DynamicBvh {
             counts[h] += 1;
         }
 
-        let rotate = self.config.rotations;
+        // Rotations read four grandchildren scattered through the arena per node. When most
+        // of the tree moved at once they would cost more than the refit itself, and a mass
+        // move is what the quality monitor's rebuild is for.
+        let rotate = self.config.rotations && sorted.len() <= self.leaf_count / 4;
         for &i in &sorted {
             let n = self.arena.nodes[i as usize];
             let [a, b] = n.children;
@@ -92,6 +103,30 @@ impl DynamicBvh {
         self.height_counts = counts;
         self.optimizer.note_refit();
         touched
+    }
+
+    fn reinsert_jumped_leaves(&mut self) {
+        let nodes = &self.arena.nodes;
+        let jumped = self
+            .dirty
+            .iter()
+            .filter(|&&l| nodes[l as usize].flags & FLAG_JUMPED != 0)
+            .count();
+        let reinsert = jumped > 0 && jumped <= (self.leaf_count / 64).max(64);
+        for k in 0..self.dirty.len() {
+            let leaf = self.dirty[k];
+            let n = &mut self.arena.nodes[leaf as usize];
+            if n.flags & FLAG_JUMPED == 0 {
+                continue;
+            }
+            n.flags &= !FLAG_JUMPED;
+            if reinsert && n.is_leaf() && n.flags & FLAG_DIRTY != 0 {
+                // Reinsertion fixes the boxes on both paths: nothing left to refit for it.
+                n.flags &= !FLAG_DIRTY;
+                self.detach(leaf);
+                self.attach(leaf);
+            }
+        }
     }
 
     /// Internal nodes recomputed by the last refit (the optimiser's first candidates).
