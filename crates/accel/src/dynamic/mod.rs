@@ -223,9 +223,8 @@ pub struct DynamicBvh {
     /// Leaves whose fat box changed since the last refit.
     dirty: Vec<u32>,
     /// Reused by the refit pass: queued internal nodes, then the same sorted by height.
-    refit_queue: Vec<u32>,
+    refit_buckets: Vec<Vec<u32>>,
     refit_sorted: Vec<u32>,
-    height_counts: Vec<u32>,
     /// Sum of half areas of internal nodes and of leaves, kept current by every box write
     /// so the SAH cost is O(1) to read.
     internal_area: f64,
@@ -250,9 +249,8 @@ impl Clone for DynamicBvh {
             leaf_count: self.leaf_count,
             config: self.config,
             dirty: self.dirty.clone(),
-            refit_queue: Vec::new(),
+            refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
-            height_counts: Vec::new(),
             internal_area: self.internal_area,
             leaf_area: self.leaf_area,
             optimizer: optimize::OptimizerState::default(),
@@ -276,9 +274,8 @@ impl DynamicBvh {
             leaf_count: 0,
             config,
             dirty: Vec::new(),
-            refit_queue: Vec::new(),
+            refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
-            height_counts: Vec::new(),
             internal_area: 0.0,
             leaf_area: 0.0,
             optimizer: optimize::OptimizerState::default(),
@@ -473,7 +470,9 @@ impl DynamicBvh {
     pub fn memory_bytes(&self) -> usize {
         self.arena.nodes.capacity() * core::mem::size_of::<node::Node>()
             + self.tight.capacity() * core::mem::size_of::<Aabb>()
-            + (self.dirty.capacity() + self.refit_queue.capacity() + self.refit_sorted.capacity())
+            + (self.dirty.capacity()
+                + self.refit_buckets.iter().map(Vec::capacity).sum::<usize>()
+                + self.refit_sorted.capacity())
                 * 4
     }
 

@@ -10,8 +10,9 @@ use super::DynamicBvh;
 
 impl DynamicBvh {
     /// Applies the best of the four rotations at internal node `a`, if one lowers the surface
-    /// area of the node it rebuilds. The box of `a` never changes (it still bounds the same
-    /// four grandchildren); heights of `a` and of the rebuilt child are updated.
+    /// area of the node it rebuilds. The box of `a` does not change when the boxes below it
+    /// are current (it still bounds the same four grandchildren); heights of `a` and of the
+    /// rebuilt child are updated.
     pub(super) fn rotate(&mut self, a: u32) {
         let nodes = &self.arena.nodes;
         let na = &nodes[a as usize];
@@ -64,7 +65,19 @@ impl DynamicBvh {
         let other_height = 1 + nd.height.max(nk.height);
         self.arena.nodes[other as usize].height = other_height;
         self.set_aabb(other, other_box);
-        let up_height = self.arena.nodes[up as usize].height;
+        let (up_height, up_box) = {
+            let nu = &self.arena.nodes[up as usize];
+            (nu.height, nu.aabb)
+        };
         self.arena.nodes[a as usize].height = 1 + other_height.max(up_height);
+        // With leaf updates pending (an insertion between `update` and `refit`), `a`'s box
+        // may not yet cover a moved grandchild that `other` now covers: widen it, so every
+        // internal node keeps containing its internal children and the refit may stop at the
+        // first box that did not change.
+        let a_box = self.arena.nodes[a as usize].aabb;
+        let covering = up_box.union(&other_box);
+        if !a_box.contains_aabb(&covering) {
+            self.set_aabb(a, a_box.union(&covering));
+        }
     }
 }
