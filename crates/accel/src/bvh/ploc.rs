@@ -1,0 +1,515 @@
+//! PLOC, Parallel Locally-Ordered Clustering (Meister & Bittner 2018, "Parallel Locally-Ordered
+//! Clustering for Bounding Volume Hierarchy Construction"), run on one thread.
+//!
+//! Bottom-up: primitives are sorted along a Morton curve ([`super::morton`]) and become the
+//! first clusters. Each iteration, every cluster picks the neighbour within `radius` places on
+//! the curve whose union with it has the smallest surface area; pairs that pick each other
+//! merge into one cluster, which takes the left one's place. The list shrinks until one
+//! cluster, the root, is left.
+//!
+//! Costs are known as the tree grows, so each merge also decides whether its subtree would be
+//! cheaper as one leaf (the stopping rules of [`BuildConfig`]); a final top-down pass lays the
+//! tree out in the builder's format (children after their parent, leaves as contiguous ranges
+//! of the primitive order).
+
+use super::build::centroid;
+use super::config::BuildConfig;
+use super::morton::{KeyLayout, Quantizer, radix_sort};
+use super::node::BvhNode;
+use super::ploc_search::Search;
+use crate::Aabb;
+
+/// The largest search radius; larger requests are clamped.
+pub const MAX_SEARCH_RADIUS: u32 = 64;
+
+/// An iteration that merges fewer than one cluster in this many is stalled. Ties and NaN
+/// areas can leave PLOC merging a single pair per iteration (boxes nested like onions, sorted
+/// by size, chain up one at a time): quadratic time, and a tree as deep as the input is long.
+/// A stalled iteration is followed by one at radius 1 and, if that stalls too, by one that
+/// pairs neighbours blindly, which keeps every run at O(log n) iterations and so bounds the
+/// depth. Normal input never stalls: larger radii merge fewer pairs per iteration, down to
+/// about one cluster in sixteen at radius 14.
+const STALL_FRACTION: usize = 32;
+
+/// The last this many clusters search at least [`TOP_RADIUS`]. At the top of the tree a
+/// handful of large clusters is left, and neighbours on the curve need not be near in space
+/// (the curve jumps between distant regions): at radius 1, scenes of a few dense clusters far
+/// apart paired distant clusters early and cost 1.3 times the binned SAH tree, against 1.03
+/// with this. Elsewhere it changes nothing measurable.
+const TOP_CLUSTERS: usize = 32;
+
+/// See [`TOP_CLUSTERS`].
+const TOP_RADIUS: u32 = 4;
+
+/// One merge: the box of the new subtree and its two children (node ids: below `n` a sorted
+/// primitive, from `n` on the merge `id - n`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Merge {
+    lo: [f32; 3],
+    left: u32,
+    hi: [f32; 3],
+    /// The right child; the top bit marks a subtree collapsed into one leaf.
+    right: u32,
+}
+
+const COLLAPSED: u32 = 1 << 31;
+
+/// The stopping rules, as the merges apply them.
+#[derive(Clone, Copy, Debug)]
+struct Collapse {
+    max_leaf: u32,
+    by_sah: bool,
+    traversal: f32,
+    intersection: f32,
+}
+
+/// A live cluster: its box, its tree node and how many primitives it holds. 32 bytes, so a
+/// move is two vector copies.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub(super) struct Cluster {
+    pub lo: [f32; 3],
+    /// The cluster's tree node (see [`Merge`]).
+    pub node: u32,
+    pub hi: [f32; 3],
+    pub prims: u32,
+}
+
+#[inline(always)]
+pub(super) fn fmin(a: f32, b: f32) -> f32 {
+    // The plain compare, not `f32::min`: this is one `minss`, and boxes here are never NaN.
+    if a < b { a } else { b }
+}
+
+#[inline(always)]
+pub(super) fn fmax(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+impl Cluster {
+    fn leaf(b: &Aabb, slot: u32) -> Self {
+        Self {
+            lo: b.min.to_array(),
+            node: slot,
+            hi: b.max.to_array(),
+            prims: 1,
+        }
+    }
+
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let (lo, hi) = (self.lo, self.hi);
+        let (dx, dy, dz) = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+        dx * dy + dy * dz + dz * dx
+    }
+
+    /// The smallest cluster box holding both (node and count left to the caller).
+    #[inline(always)]
+    fn union(&self, o: &Self) -> Self {
+        let (a, b) = (self, o);
+        Self {
+            lo: [
+                fmin(a.lo[0], b.lo[0]),
+                fmin(a.lo[1], b.lo[1]),
+                fmin(a.lo[2], b.lo[2]),
+            ],
+            node: 0,
+            hi: [
+                fmax(a.hi[0], b.hi[0]),
+                fmax(a.hi[1], b.hi[1]),
+                fmax(a.hi[2], b.hi[2]),
+            ],
+            prims: 0,
+        }
+    }
+
+    /// Half the surface area of the union of two clusters.
+    #[inline(always)]
+    pub fn union_area(&self, o: &Self) -> f32 {
+        self.union(o).half_area()
+    }
+}
+
+/// Records merges: what every pass hands its pairs to.
+pub(super) struct Merger<'a> {
+    merges: &'a mut Vec<Merge>,
+    first_merge_id: u32,
+    rule: Collapse,
+}
+
+impl Merger<'_> {
+    /// Merges two clusters with subtree costs `cost_a` and `cost_b`: records the merge and
+    /// whether its subtree is better as one leaf; returns the new cluster and its cost.
+    #[inline(always)]
+    pub fn merge(&mut self, a: &Cluster, cost_a: f32, b: &Cluster, cost_b: f32) -> (Cluster, f32) {
+        let prims = a.prims + b.prims;
+        let m = Cluster {
+            node: self.first_merge_id + self.merges.len() as u32,
+            prims,
+            ..a.union(b)
+        };
+        let area = m.half_area();
+        let rule = &self.rule;
+        // The top-down builder's rule, `leaf_cost <= split_cost`, with the split's true cost:
+        // both children are finished (and collapsed where cheaper), so the decision is the
+        // optimal collapse of this subtree, not the top-down guess that children are leaves.
+        let keep = rule.traversal * area + cost_a + cost_b;
+        let leaf = rule.intersection * prims as f32 * area;
+        let collapse = prims <= rule.max_leaf && (!rule.by_sah || leaf <= keep);
+        self.merges.push(Merge {
+            lo: m.lo,
+            left: a.node,
+            hi: m.hi,
+            right: b.node | if collapse { COLLAPSED } else { 0 },
+        });
+        (m, if collapse { leaf } else { keep })
+    }
+}
+
+/// Builds the tree over the valid boxes of `bounds` with PLOC: the same output as
+/// [`super::build::build_nodes`] (node 0 the root, children after their parent, leaves as
+/// contiguous ranges of the returned primitive order, invalid boxes left out).
+pub(super) fn build_nodes(
+    bounds: &[Aabb],
+    config: &BuildConfig,
+    radius: u32,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    assert!(
+        bounds.len() < u32::MAX as usize,
+        "a BVH holds at most u32::MAX - 1 primitives"
+    );
+    let mut centroids = Aabb::EMPTY;
+    let mut n = 0usize;
+    for b in bounds {
+        if b.is_valid() {
+            centroids = centroids.grow(centroid(b));
+            n += 1;
+        }
+    }
+    if n >= COLLAPSED as usize / 2 {
+        // Node ids would reach the collapse flag: build top-down instead.
+        let top_down = BuildConfig {
+            split: super::SplitStrategy::BinnedSah { bins: 16 },
+            ..*config
+        };
+        return super::build::build_nodes(bounds, &top_down);
+    }
+
+    let layout = KeyLayout::for_ids(bounds.len());
+    let grid = Quantizer::new(&centroids, layout.axis_bits);
+    let mut keys = Vec::with_capacity(n);
+    for (i, b) in bounds.iter().enumerate() {
+        if b.is_valid() {
+            keys.push((grid.code(centroid(b)) << layout.index_bits) | i as u64);
+        }
+    }
+    radix_sort(&mut keys, layout.code_bits());
+    let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
+    drop(keys);
+
+    let rule = Collapse {
+        max_leaf: config.max_leaf_size,
+        by_sah: config.sah_termination,
+        traversal: config.sah.traversal,
+        intersection: config.sah.intersection,
+    };
+    let (merges, leaves) = cluster(bounds, &order, radius.clamp(1, MAX_SEARCH_RADIUS), &rule);
+    layout_tree(&leaves, &order, &merges, config.max_depth)
+}
+
+/// Clusters and the SAH costs of their subtrees (area-weighted, not divided by the root's
+/// area; collapsed where a leaf is cheaper).
+#[derive(Debug, Default)]
+pub(super) struct Clusters {
+    pub cl: Vec<Cluster>,
+    pub cost: Vec<f32>,
+}
+
+impl Clusters {
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            cl: Vec::with_capacity(n),
+            cost: Vec::with_capacity(n),
+        }
+    }
+
+    #[inline(always)]
+    pub fn push(&mut self, c: Cluster, cost: f32) {
+        self.cl.push(c);
+        self.cost.push(cost);
+    }
+
+    #[inline(always)]
+    pub fn copy(&mut self, from: &Self, i: usize) {
+        self.push(from.cl[i], from.cost[i]);
+    }
+
+    /// Merges clusters `a` and `b` of `from` into a new cluster here.
+    #[inline(always)]
+    pub fn merge(&mut self, from: &Self, a: usize, b: usize, merger: &mut Merger<'_>) {
+        let (c, cost) = merger.merge(&from.cl[a], from.cost[a], &from.cl[b], from.cost[b]);
+        self.push(c, cost);
+    }
+
+    fn clear(&mut self) {
+        self.cl.clear();
+        self.cost.clear();
+    }
+}
+
+/// Runs the clustering over the primitives in curve order; returns the merges (the last one
+/// the root; none for fewer than two primitives) and the primitives' boxes in curve order.
+fn cluster(
+    bounds: &[Aabb],
+    order: &[u32],
+    radius: u32,
+    rule: &Collapse,
+) -> (Vec<Merge>, Vec<Cluster>) {
+    let n = order.len();
+    // One tight loop for the random reads of the boxes, so that many are in flight at once.
+    let cl: Vec<Cluster> = order
+        .iter()
+        .enumerate()
+        .map(|(slot, &id)| Cluster::leaf(&bounds[id as usize], slot as u32))
+        .collect();
+    let cost = cl
+        .iter()
+        .map(|c| rule.intersection * c.half_area())
+        .collect();
+    // The leaves are kept for the layout's leaf boxes (reading `bounds` again would be a
+    // second round of cache misses): the first iteration reads them, later ones ping-pong
+    // between two buffers.
+    let leaves = Clusters { cl, cost };
+    let mut merges = Vec::with_capacity(n.saturating_sub(1));
+    if n < 2 {
+        return (merges, leaves.cl);
+    }
+    let mut merger = Merger {
+        merges: &mut merges,
+        first_merge_id: n as u32,
+        rule: *rule,
+    };
+    let mut areas = vec![0.0f32; n];
+    let mut search = Search::new(if radius > 1 { n } else { TOP_CLUSTERS });
+    // 0: the configured radius; 1: radius 1 after a stalled iteration; 2: blind pairing after
+    // a stalled radius-1 iteration.
+    let mut fallback = 0;
+    let mut iterate = |src: &Clusters, dst: &mut Clusters| {
+        dst.clear();
+        let radius = match src.cl.len() {
+            ..=TOP_CLUSTERS => radius.max(TOP_RADIUS),
+            _ => radius,
+        };
+        match (fallback, radius) {
+            (2.., _) => pair_blindly(src, dst, &mut merger),
+            (1, _) | (_, 1) => pass_radius_one(src, dst, &mut areas, &mut merger),
+            _ => {
+                search.find(&src.cl, radius as usize);
+                search.merge_mutual(src, dst, &mut merger);
+            }
+        }
+        let (count, next) = (src.cl.len(), dst.cl.len());
+        let stalled = (count - next) * STALL_FRACTION < count;
+        fallback = match (stalled, fallback) {
+            (false, _) => 0,
+            (true, 0) if radius > 1 => 1,
+            (true, _) => 2,
+        };
+    };
+    let mut cur = Clusters::with_capacity(n);
+    let mut next = Clusters::with_capacity(n);
+    iterate(&leaves, &mut cur);
+    while cur.cl.len() > 1 {
+        iterate(&cur, &mut next);
+        std::mem::swap(&mut cur, &mut next);
+    }
+    (merges, leaves.cl)
+}
+
+/// The radius-1 iteration: cluster `i` picks `i + 1` when the union to the right is smaller
+/// than the one to the left, so a pair merges when its union is a local minimum of the
+/// sequence of adjacent unions, which one scan finds.
+fn pass_radius_one(src: &Clusters, dst: &mut Clusters, areas: &mut [f32], merger: &mut Merger<'_>) {
+    let count = src.cl.len();
+    let areas = &mut areas[..count - 1];
+    for (a, w) in areas.iter_mut().zip(src.cl.windows(2)) {
+        *a = w[0].union_area(&w[1]);
+    }
+    // Ties go to the pair whose left member has an even slot (the tie rule of `Search`, at
+    // distance 1): a run of equal unions (a grid of identical boxes) then merges as
+    // (0, 1), (2, 3), ... instead of one pair per iteration.
+    let mut i = 0;
+    let mut left = f32::INFINITY;
+    while i + 1 < count {
+        let here = areas[i];
+        let right = areas.get(i + 1).copied().unwrap_or(f32::INFINITY);
+        let even = i % 2 == 0;
+        let i_picks_right = here < left || (here == left && even);
+        let next_picks_left = here < right || (here == right && even);
+        if i_picks_right && next_picks_left {
+            dst.merge(src, i, i + 1, merger);
+            left = right;
+            i += 2;
+        } else {
+            dst.copy(src, i);
+            left = here;
+            i += 1;
+        }
+    }
+    if i < count {
+        dst.copy(src, i);
+    }
+}
+
+/// The stall guard's last resort: merges slots (0, 1), (2, 3), ... whatever their areas.
+fn pair_blindly(src: &Clusters, dst: &mut Clusters, merger: &mut Merger<'_>) {
+    let count = src.cl.len();
+    for i in (0..count - 1).step_by(2) {
+        dst.merge(src, i, i + 1, merger);
+    }
+    if count % 2 == 1 {
+        dst.copy(src, count - 1);
+    }
+}
+
+/// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
+/// together after their parent, depth-first with the left child first, so that leaves take
+/// contiguous, increasing ranges of the primitive order. Collapsed subtrees and subtrees at
+/// `max_depth` become one leaf.
+fn layout_tree(
+    leaves: &[Cluster],
+    order: &[u32],
+    merges: &[Merge],
+    max_depth: u32,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    let n = order.len();
+    let mut prims = Vec::with_capacity(n);
+    if n == 0 {
+        return (Vec::new(), prims);
+    }
+    let mut nodes = Vec::with_capacity(2 * n - 1);
+    nodes.push(BvhNode::default());
+    let root = (2 * n - 2) as u32;
+    let mut work = vec![(0usize, root, 0u32)];
+    let mut gather = Vec::new();
+    while let Some((slot, id, depth)) = work.pop() {
+        let Some(m) = (id as usize).checked_sub(n).map(|m| &merges[m]) else {
+            let leaf = &leaves[id as usize];
+            nodes[slot] = BvhNode {
+                min: leaf.lo,
+                first: prims.len() as u32,
+                max: leaf.hi,
+                count: 1,
+            };
+            prims.push(order[id as usize]);
+            continue;
+        };
+        let next_free = nodes.len();
+        let node = &mut nodes[slot];
+        node.min = m.lo;
+        node.max = m.hi;
+        if m.right & COLLAPSED != 0 || depth >= max_depth {
+            node.first = prims.len() as u32;
+            gather.push(id);
+            while let Some(g) = gather.pop() {
+                match (g as usize).checked_sub(n) {
+                    None => prims.push(order[g as usize]),
+                    Some(m) => {
+                        gather.push(merges[m].right & !COLLAPSED);
+                        gather.push(merges[m].left);
+                    }
+                }
+            }
+            node.count = prims.len() as u32 - node.first;
+        } else {
+            node.first = next_free as u32;
+            node.count = 0;
+            nodes.push(BvhNode::default());
+            nodes.push(BvhNode::default());
+            work.push((next_free + 1, m.right, depth + 1));
+            work.push((next_free, m.left, depth + 1));
+        }
+    }
+    (nodes, prims)
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    pub(in crate::bvh) fn clusters_of(boxes: &[Aabb]) -> Clusters {
+        let cl: Vec<Cluster> = (0..boxes.len())
+            .map(|i| Cluster::leaf(&boxes[i], i as u32))
+            .collect();
+        let cost = cl.iter().map(Cluster::half_area).collect();
+        Clusters { cl, cost }
+    }
+
+    const RULE: Collapse = Collapse {
+        max_leaf: 1,
+        by_sah: false,
+        traversal: 1.0,
+        intersection: 1.0,
+    };
+
+    /// Boxes on a coarse grid of sizes, so that equal union areas are frequent.
+    pub(in crate::bvh) fn coarse_boxes(n: usize, seed: u32) -> Vec<Aabb> {
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 28) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let p = Vec3A::new(next(), next(), next());
+                Aabb::new(p, p + Vec3A::new(next(), 1.0, 2.0))
+            })
+            .collect()
+    }
+
+    /// The general search at radius 1 and the one-scan radius-1 pass merge the same pairs,
+    /// ties included.
+    #[test]
+    fn radius_one_scan_agrees_with_the_search() {
+        for n in [2, 3, 4, 5, 50, 1_000] {
+            let src = clusters_of(&coarse_boxes(n, 7));
+            let (mut a, mut b) = (Clusters::default(), Clusters::default());
+            let (mut ma, mut mb) = (Vec::new(), Vec::new());
+            let mut merger = Merger {
+                merges: &mut ma,
+                first_merge_id: n as u32,
+                rule: RULE,
+            };
+            pass_radius_one(&src, &mut a, &mut vec![0.0; n], &mut merger);
+            let mut search = Search::new(n);
+            search.find(&src.cl, 1);
+            let mut merger = Merger {
+                merges: &mut mb,
+                first_merge_id: n as u32,
+                rule: RULE,
+            };
+            search.merge_mutual(&src, &mut b, &mut merger);
+            let nodes = |c: &Clusters| c.cl.iter().map(|c| c.node).collect::<Vec<_>>();
+            assert_eq!(nodes(&a), nodes(&b), "n {n}");
+            assert!(a.cl.len() < n, "n {n}: no merge");
+        }
+    }
+
+    #[test]
+    fn identical_boxes_halve_every_iteration() {
+        let boxes = vec![Aabb::from_point(Vec3A::ONE); 1024];
+        for radius in [1, 2, 5] {
+            let order: Vec<u32> = (0..1024).collect();
+            let (merges, leaves) = cluster(&boxes, &order, radius, &RULE);
+            assert_eq!(merges.len(), 1023);
+            let (nodes, primitive_indices) = layout_tree(&leaves, &order, &merges, 64);
+            let bvh = crate::Bvh {
+                nodes,
+                primitive_indices,
+            };
+            let s = crate::bvh::stats::tree_stats(&bvh, &Default::default());
+            assert_eq!(s.max_depth, 10, "radius {radius}");
+        }
+    }
+}
