@@ -12,15 +12,26 @@ use accel::{
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, random_frustum, rays, scene};
 
-const STRATEGIES: [SplitStrategy; 7] = [
+const STRATEGIES: [SplitStrategy; 8] = [
     SplitStrategy::Midpoint,
     SplitStrategy::Median,
     SplitStrategy::BinnedSah { bins: 16 },
     SplitStrategy::BinnedSah { bins: 4 },
     SplitStrategy::SweepSah,
-    // Radius 1 takes PLOC's one-scan path, larger radii the general search.
-    SplitStrategy::Ploc { search_radius: 1 },
-    SplitStrategy::Ploc { search_radius: 6 },
+    // Radius 1 takes PLOC's one-scan path, larger radii the general search; reinsertion
+    // rebuilds the collapse and the layout after moving nodes.
+    SplitStrategy::Ploc {
+        search_radius: 1,
+        reinsert_per_mille: 0,
+    },
+    SplitStrategy::Ploc {
+        search_radius: 6,
+        reinsert_per_mille: 0,
+    },
+    SplitStrategy::Ploc {
+        search_radius: 2,
+        reinsert_per_mille: 50,
+    },
 ];
 
 fn configs() -> Vec<BuildConfig> {
@@ -395,7 +406,9 @@ fn ploc_matches_brute_force_on_large_scenes_and_odd_input() {
 
 /// Boxes nested like onions and sorted by size make every cluster prefer its smaller
 /// neighbour: PLOC alone would merge one pair per iteration (quadratic, and as deep as the
-/// input is long). The stall guard keeps it fast and shallow.
+/// input is long). The stall guard keeps it fast and shallow; reinsertion chains them (their
+/// SAH optimum), and the depth limit then rebuilds the deep part top-down rather than leave
+/// one huge leaf.
 #[test]
 fn ploc_stays_shallow_on_nested_boxes() {
     let n = 200_000;
@@ -405,17 +418,24 @@ fn ploc_stays_shallow_on_nested_boxes() {
         })
         .collect();
     for split in ploc_strategies() {
-        let cfg = BuildConfig {
-            max_depth: 1000,
-            ..BuildConfig::with_split(split)
-        };
-        let t = std::time::Instant::now();
-        let bvh = Bvh::build(&boxes, &cfg);
-        let secs = t.elapsed().as_secs_f64();
-        bvh.validate(&boxes).unwrap();
-        let s = tree_stats(&bvh, &cfg.sah);
-        assert!(s.max_depth <= 200, "{split:?}: depth {}", s.max_depth);
-        assert!(secs < 5.0, "{split:?}: {secs:.1} s");
+        for max_depth in [64, 1000] {
+            let cfg = BuildConfig {
+                max_depth,
+                ..BuildConfig::with_split(split)
+            };
+            let t = std::time::Instant::now();
+            let bvh = Bvh::build(&boxes, &cfg);
+            let secs = t.elapsed().as_secs_f64();
+            bvh.validate(&boxes).unwrap();
+            let s = tree_stats(&bvh, &cfg.sah);
+            println!("{split:?} max_depth {max_depth}: {secs:.2} s, {s:?}");
+            assert!(s.max_depth <= max_depth as usize, "{split:?}: {s:?}");
+            assert!(
+                s.max_leaf_size <= cfg.max_leaf_size as usize,
+                "{split:?}: {s:?}"
+            );
+            assert!(secs < 5.0, "{split:?}: {secs:.1} s");
+        }
     }
 }
 

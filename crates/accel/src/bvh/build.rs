@@ -17,7 +17,7 @@ pub(super) struct BuildPrim {
 }
 
 impl BuildPrim {
-    fn new(bounds: Aabb, index: u32) -> Self {
+    pub(super) fn new(bounds: Aabb, index: u32) -> Self {
         Self {
             bounds,
             centroid: centroid(&bounds),
@@ -55,8 +55,12 @@ pub(super) enum SplitOutcome {
 /// Primitives with invalid bounds (NaN, or empty) are left out: they could never be hit, and a
 /// NaN in a node box would hide its whole subtree from every query.
 pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
-    if let SplitStrategy::Ploc { search_radius } = config.split {
-        return ploc::build_nodes(bounds, config, search_radius);
+    if let SplitStrategy::Ploc {
+        search_radius,
+        reinsert_per_mille,
+    } = config.split
+    {
+        return ploc::build_nodes(bounds, config, search_radius, reinsert_per_mille);
     }
     let mut prims = collect_prims(bounds);
     let nodes = build_subtree(&mut prims, config, 0, 0);

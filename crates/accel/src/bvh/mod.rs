@@ -21,6 +21,7 @@ mod morton;
 mod node;
 mod ploc;
 mod ploc_search;
+mod reinsert;
 mod sphere_tree;
 mod split_binned;
 mod split_object;

@@ -12,12 +12,14 @@
 //! tree out in the builder's format (children after their parent, leaves as contiguous ranges
 //! of the primitive order).
 
-use super::build::centroid;
-use super::config::BuildConfig;
+use super::build::{BuildPrim, build_subtree, centroid};
+use super::config::{BuildConfig, SplitStrategy};
 use super::morton::{KeyLayout, Quantizer, radix_sort};
 use super::node::BvhNode;
 use super::ploc_search::Search;
+use super::reinsert::Tree;
 use crate::Aabb;
+use glam::Vec3A;
 
 /// The largest search radius; larger requests are clamped.
 pub const MAX_SEARCH_RADIUS: u32 = 64;
@@ -41,18 +43,21 @@ const TOP_CLUSTERS: usize = 32;
 /// See [`TOP_CLUSTERS`].
 const TOP_RADIUS: u32 = 4;
 
+/// Reinsertion rounds (see [`Tree::optimize`]).
+const REINSERT_ROUNDS: u32 = 4;
+
 /// One merge: the box of the new subtree and its two children (node ids: below `n` a sorted
 /// primitive, from `n` on the merge `id - n`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Merge {
-    lo: [f32; 3],
-    left: u32,
-    hi: [f32; 3],
+    pub lo: [f32; 3],
+    pub left: u32,
+    pub hi: [f32; 3],
     /// The right child; the top bit marks a subtree collapsed into one leaf.
-    right: u32,
+    pub right: u32,
 }
 
-const COLLAPSED: u32 = 1 << 31;
+pub(super) const COLLAPSED: u32 = 1 << 31;
 
 /// The stopping rules, as the merges apply them.
 #[derive(Clone, Copy, Debug)]
@@ -61,6 +66,22 @@ struct Collapse {
     by_sah: bool,
     traversal: f32,
     intersection: f32,
+}
+
+impl Collapse {
+    /// Whether a subtree of `prims` primitives, box area `area` and children costing
+    /// `cost_a` and `cost_b` is better as one leaf, and what it costs.
+    ///
+    /// The top-down builder's rule, `leaf_cost <= split_cost`, with the split's true cost:
+    /// both children are finished (and collapsed where cheaper), so the decision is the optimal
+    /// collapse of this subtree, not the top-down guess that children are leaves.
+    #[inline(always)]
+    fn decide(&self, prims: u32, area: f32, cost_a: f32, cost_b: f32) -> (bool, f32) {
+        let keep = self.traversal * area + cost_a + cost_b;
+        let leaf = self.intersection * prims as f32 * area;
+        let collapse = prims <= self.max_leaf && (!self.by_sah || leaf <= keep);
+        (collapse, if collapse { leaf } else { keep })
+    }
 }
 
 /// A live cluster: its box, its tree node and how many primitives it holds. 32 bytes, so a
@@ -87,7 +108,7 @@ pub(super) fn fmax(a: f32, b: f32) -> f32 {
 }
 
 impl Cluster {
-    fn leaf(b: &Aabb, slot: u32) -> Self {
+    pub fn leaf(b: &Aabb, slot: u32) -> Self {
         Self {
             lo: b.min.to_array(),
             node: slot,
@@ -97,7 +118,7 @@ impl Cluster {
     }
 
     #[inline(always)]
-    fn half_area(&self) -> f32 {
+    pub fn half_area(&self) -> f32 {
         let (lo, hi) = (self.lo, self.hi);
         let (dx, dy, dz) = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
         dx * dy + dy * dz + dz * dx
@@ -148,21 +169,14 @@ impl Merger<'_> {
             prims,
             ..a.union(b)
         };
-        let area = m.half_area();
-        let rule = &self.rule;
-        // The top-down builder's rule, `leaf_cost <= split_cost`, with the split's true cost:
-        // both children are finished (and collapsed where cheaper), so the decision is the
-        // optimal collapse of this subtree, not the top-down guess that children are leaves.
-        let keep = rule.traversal * area + cost_a + cost_b;
-        let leaf = rule.intersection * prims as f32 * area;
-        let collapse = prims <= rule.max_leaf && (!rule.by_sah || leaf <= keep);
+        let (collapse, cost) = self.rule.decide(prims, m.half_area(), cost_a, cost_b);
         self.merges.push(Merge {
             lo: m.lo,
             left: a.node,
             hi: m.hi,
             right: b.node | if collapse { COLLAPSED } else { 0 },
         });
-        (m, if collapse { leaf } else { keep })
+        (m, cost)
     }
 }
 
@@ -173,6 +187,7 @@ pub(super) fn build_nodes(
     bounds: &[Aabb],
     config: &BuildConfig,
     radius: u32,
+    reinsert_per_mille: u32,
 ) -> (Vec<BvhNode>, Vec<u32>) {
     assert!(
         bounds.len() < u32::MAX as usize,
@@ -189,7 +204,7 @@ pub(super) fn build_nodes(
     if n >= COLLAPSED as usize / 2 {
         // Node ids would reach the collapse flag: build top-down instead.
         let top_down = BuildConfig {
-            split: super::SplitStrategy::BinnedSah { bins: 16 },
+            split: SplitStrategy::BinnedSah { bins: 16 },
             ..*config
         };
         return super::build::build_nodes(bounds, &top_down);
@@ -213,8 +228,87 @@ pub(super) fn build_nodes(
         traversal: config.sah.traversal,
         intersection: config.sah.intersection,
     };
-    let (merges, leaves) = cluster(bounds, &order, radius.clamp(1, MAX_SEARCH_RADIUS), &rule);
-    layout_tree(&leaves, &order, &merges, config.max_depth)
+    let radius = radius.clamp(1, MAX_SEARCH_RADIUS);
+    if reinsert_per_mille == 0 || n < 3 {
+        let (merges, leaves, iterations) = cluster(bounds, &order, radius, &rule);
+        let root = (2 * n).saturating_sub(2) as u32;
+        // Each iteration adds at most one level, so only a run of more iterations than
+        // `max_depth` can need the depth fallback, and only then are heights worth computing.
+        let heights = (iterations > config.max_depth as usize)
+            .then(|| subtree_heights(n, &merges, &post_order(n, &merges, root)));
+        return layout_tree(&leaves, &order, &merges, root, heights.as_deref(), config);
+    }
+    // Reinsertion moves nodes of the binary tree; the stopping rules are applied after it.
+    let binary = Collapse {
+        max_leaf: 0,
+        ..rule
+    };
+    let (mut merges, leaves, _) = cluster(bounds, &order, radius, &binary);
+    let mut tree = Tree::new(&leaves, &mut merges);
+    let batch = (2 * n - 1) * reinsert_per_mille.min(1000) as usize / 1000;
+    tree.optimize(batch, REINSERT_ROUNDS);
+    let root = tree.root();
+    let post_order = post_order(n, &merges, root);
+    collapse(&leaves, &mut merges, &post_order, &rule);
+    // Reinsertion deepens trees freely (nested boxes become a chain, their SAH optimum).
+    let heights = subtree_heights(n, &merges, &post_order);
+    layout_tree(&leaves, &order, &merges, root, Some(&heights), config)
+}
+
+/// The merge indices under `root`, children before parents.
+fn post_order(n: usize, merges: &[Merge], root: u32) -> Vec<u32> {
+    let mut out = Vec::with_capacity(merges.len());
+    let mut work = vec![(root, false)];
+    while let Some((id, children_done)) = work.pop() {
+        let Some(m) = (id as usize).checked_sub(n) else {
+            continue;
+        };
+        if children_done {
+            out.push(m as u32);
+        } else {
+            let [l, r] = [merges[m].left, merges[m].right & !COLLAPSED];
+            work.extend([(id, true), (l, false), (r, false)]);
+        }
+    }
+    out
+}
+
+/// The height each merge's subtree will have once laid out (collapsed subtrees are leaves).
+fn subtree_heights(n: usize, merges: &[Merge], post_order: &[u32]) -> Vec<u32> {
+    let mut height = vec![0u32; merges.len()];
+    for &m in post_order {
+        let merge = &merges[m as usize];
+        if merge.right & COLLAPSED == 0 {
+            let of = |c: u32| (c as usize).checked_sub(n).map_or(0, |c| height[c]);
+            height[m as usize] = 1 + of(merge.left).max(of(merge.right));
+        }
+    }
+    height
+}
+
+/// Sets the collapse flags of a tree whose merges are in no particular order (after
+/// reinsertion), visiting them in `post_order`.
+fn collapse(leaves: &[Cluster], merges: &mut [Merge], post_order: &[u32], rule: &Collapse) {
+    let n = leaves.len();
+    let mut done = vec![(0.0f32, 0u32); merges.len()];
+    for &m in post_order {
+        let merge = &mut merges[m as usize];
+        let [l, r] = [merge.left, merge.right & !COLLAPSED];
+        let of = |c: u32| match (c as usize).checked_sub(n) {
+            None => (rule.intersection * leaves[c as usize].half_area(), 1),
+            Some(c) => done[c],
+        };
+        let ((cost_l, prims_l), (cost_r, prims_r)) = (of(l), of(r));
+        let area = Cluster {
+            lo: merge.lo,
+            hi: merge.hi,
+            ..Cluster::default()
+        }
+        .half_area();
+        let (flag, cost) = rule.decide(prims_l + prims_r, area, cost_l, cost_r);
+        merge.right = r | if flag { COLLAPSED } else { 0 };
+        done[m as usize] = (cost, prims_l + prims_r);
+    }
 }
 
 /// Clusters and the SAH costs of their subtrees (area-weighted, not divided by the root's
@@ -258,13 +352,14 @@ impl Clusters {
 }
 
 /// Runs the clustering over the primitives in curve order; returns the merges (the last one
-/// the root; none for fewer than two primitives) and the primitives' boxes in curve order.
+/// the root; none for fewer than two primitives), the primitives' boxes in curve order and the
+/// number of iterations.
 fn cluster(
     bounds: &[Aabb],
     order: &[u32],
     radius: u32,
     rule: &Collapse,
-) -> (Vec<Merge>, Vec<Cluster>) {
+) -> (Vec<Merge>, Vec<Cluster>, usize) {
     let n = order.len();
     // One tight loop for the random reads of the boxes, so that many are in flight at once.
     let cl: Vec<Cluster> = order
@@ -282,7 +377,7 @@ fn cluster(
     let leaves = Clusters { cl, cost };
     let mut merges = Vec::with_capacity(n.saturating_sub(1));
     if n < 2 {
-        return (merges, leaves.cl);
+        return (merges, leaves.cl, 0);
     }
     let mut merger = Merger {
         merges: &mut merges,
@@ -319,11 +414,13 @@ fn cluster(
     let mut cur = Clusters::with_capacity(n);
     let mut next = Clusters::with_capacity(n);
     iterate(&leaves, &mut cur);
+    let mut iterations = 1;
     while cur.cl.len() > 1 {
         iterate(&cur, &mut next);
         std::mem::swap(&mut cur, &mut next);
+        iterations += 1;
     }
-    (merges, leaves.cl)
+    (merges, leaves.cl, iterations)
 }
 
 /// The radius-1 iteration: cluster `i` picks `i + 1` when the union to the right is smaller
@@ -374,13 +471,20 @@ fn pair_blindly(src: &Clusters, dst: &mut Clusters, merger: &mut Merger<'_>) {
 
 /// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
 /// together after their parent, depth-first with the left child first, so that leaves take
-/// contiguous, increasing ranges of the primitive order. Collapsed subtrees and subtrees at
-/// `max_depth` become one leaf.
+/// contiguous, increasing ranges of the primitive order. Collapsed subtrees become one leaf.
+///
+/// `heights` (the laid-out height of each merge's subtree) is given when the tree may be
+/// deeper than `config.max_depth`: a subtree that would cross it is rebuilt top-down, binned
+/// SAH with the same stopping rules, from its depth (a bottom-up tree has no depth bound of
+/// its own, and cutting it into leaves at the limit could leave one leaf with most of the
+/// primitives).
 fn layout_tree(
     leaves: &[Cluster],
     order: &[u32],
     merges: &[Merge],
-    max_depth: u32,
+    root: u32,
+    heights: Option<&[u32]>,
+    config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>) {
     let n = order.len();
     let mut prims = Vec::with_capacity(n);
@@ -389,9 +493,9 @@ fn layout_tree(
     }
     let mut nodes = Vec::with_capacity(2 * n - 1);
     nodes.push(BvhNode::default());
-    let root = (2 * n - 2) as u32;
     let mut work = vec![(0usize, root, 0u32)];
     let mut gather = Vec::new();
+    let mut subtree = Vec::new();
     while let Some((slot, id, depth)) = work.pop() {
         let Some(m) = (id as usize).checked_sub(n).map(|m| &merges[m]) else {
             let leaf = &leaves[id as usize];
@@ -404,23 +508,56 @@ fn layout_tree(
             prims.push(order[id as usize]);
             continue;
         };
-        let next_free = nodes.len();
-        let node = &mut nodes[slot];
-        node.min = m.lo;
-        node.max = m.hi;
-        if m.right & COLLAPSED != 0 || depth >= max_depth {
-            node.first = prims.len() as u32;
+        let collapsed = m.right & COLLAPSED != 0;
+        let too_deep = heights.is_some_and(|h| depth + h[id as usize - n] > config.max_depth);
+        if collapsed || too_deep {
             gather.push(id);
+            subtree.clear();
             while let Some(g) = gather.pop() {
                 match (g as usize).checked_sub(n) {
-                    None => prims.push(order[g as usize]),
+                    None => subtree.push(g),
                     Some(m) => {
                         gather.push(merges[m].right & !COLLAPSED);
                         gather.push(merges[m].left);
                     }
                 }
             }
-            node.count = prims.len() as u32 - node.first;
+        }
+        if too_deep && !collapsed {
+            let top_down = BuildConfig {
+                split: SplitStrategy::BinnedSah { bins: 16 },
+                ..*config
+            };
+            let mut build: Vec<BuildPrim> = subtree
+                .iter()
+                .map(|&s| {
+                    let c = &leaves[s as usize];
+                    let b = Aabb::new(Vec3A::from_array(c.lo), Vec3A::from_array(c.hi));
+                    BuildPrim::new(b, order[s as usize])
+                })
+                .collect();
+            let sub = build_subtree(&mut build, &top_down, prims.len(), depth);
+            prims.extend(build.iter().map(|p| p.index));
+            // `sub` has its root at 0 and the rest after it; the root takes `slot`.
+            let base = nodes.len() as u32;
+            let place = |mut node: BvhNode| {
+                if !node.is_leaf() {
+                    node.first += base - 1;
+                }
+                node
+            };
+            nodes[slot] = place(sub[0]);
+            nodes.extend(sub[1..].iter().map(|&node| place(node)));
+            continue;
+        }
+        let next_free = nodes.len();
+        let node = &mut nodes[slot];
+        node.min = m.lo;
+        node.max = m.hi;
+        if collapsed {
+            node.first = prims.len() as u32;
+            node.count = subtree.len() as u32;
+            prims.extend(subtree.iter().map(|&s| order[s as usize]));
         } else {
             node.first = next_free as u32;
             node.count = 0;
@@ -436,7 +573,6 @@ fn layout_tree(
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
-    use glam::Vec3A;
 
     pub(in crate::bvh) fn clusters_of(boxes: &[Aabb]) -> Clusters {
         let cl: Vec<Cluster> = (0..boxes.len())
@@ -501,9 +637,11 @@ pub(super) mod tests {
         let boxes = vec![Aabb::from_point(Vec3A::ONE); 1024];
         for radius in [1, 2, 5] {
             let order: Vec<u32> = (0..1024).collect();
-            let (merges, leaves) = cluster(&boxes, &order, radius, &RULE);
+            let (merges, leaves, _) = cluster(&boxes, &order, radius, &RULE);
             assert_eq!(merges.len(), 1023);
-            let (nodes, primitive_indices) = layout_tree(&leaves, &order, &merges, 64);
+            let config = BuildConfig::default();
+            let (nodes, primitive_indices) =
+                layout_tree(&leaves, &order, &merges, 2046, None, &config);
             let bvh = crate::Bvh {
                 nodes,
                 primitive_indices,
