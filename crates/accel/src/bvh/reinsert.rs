@@ -47,6 +47,9 @@ pub(super) struct Tree<'a> {
     leaves: &'a [Cluster],
     merges: &'a mut [Merge],
     parent: Vec<u32>,
+    /// Half the surface area of every node's box, kept up to date by the refits: choosing
+    /// candidates reads all of them every round.
+    area: Vec<f32>,
     root: u32,
     stack: Vec<(f32, u32)>,
 }
@@ -60,11 +63,21 @@ impl<'a> Tree<'a> {
             parent[merge.left as usize] = (n + m) as u32;
             parent[(merge.right & !COLLAPSED) as usize] = (n + m) as u32;
         }
+        let area = leaves
+            .iter()
+            .map(Cluster::half_area)
+            .chain(
+                merges
+                    .iter()
+                    .map(|m| Bounds { lo: m.lo, hi: m.hi }.half_area()),
+            )
+            .collect();
         Self {
             leaves,
             root: (n + merges.len() - 1) as u32,
             merges,
             parent,
+            area,
             stack: Vec::new(),
         }
     }
@@ -118,15 +131,11 @@ impl<'a> Tree<'a> {
     /// keys in increasing order. A histogram of the areas' top bits finds the threshold in one
     /// pass; only the nodes above it are sorted.
     fn largest(&self, want: usize, keys: &mut Vec<u64>) {
-        let ids = 0..self.parent.len() as u32;
         // Positive floats order like their bits; NaN areas (0 times infinity) are never moved.
-        let key = |id: u32| -> Option<u32> {
-            let a = self.bounds(id).half_area();
-            (id != self.root && a >= 0.0).then_some(a.to_bits())
-        };
+        let key = |a: f32| -> Option<u32> { (a >= 0.0).then_some(a.to_bits()) };
         let mut hist = vec![0u32; 1 << 12];
-        for id in ids.clone() {
-            if let Some(k) = key(id) {
+        for &a in &self.area {
+            if let Some(k) = key(a) {
                 hist[(k >> 20) as usize] += 1;
             }
         }
@@ -140,9 +149,9 @@ impl<'a> Tree<'a> {
             }
         }
         keys.clear();
-        for id in ids {
-            if let Some(k) = key(id).filter(|k| k >> 20 >= threshold) {
-                keys.push((u64::from(k) << 32) | u64::from(id));
+        for (id, &a) in self.area.iter().enumerate() {
+            if let Some(k) = key(a).filter(|k| k >> 20 >= threshold && id as u32 != self.root) {
+                keys.push((u64::from(k) << 32) | id as u64);
             }
         }
         radix_sort(keys, 32..64);
@@ -159,12 +168,12 @@ impl<'a> Tree<'a> {
             return None;
         }
         let nb = self.bounds(node);
-        let node_area = nb.half_area();
+        let node_area = self.area[node as usize];
         let mut best = (NONE, 0.0f32);
         // Taking the node out removes its parent; every ancestor above shrinks to the union of
         // the siblings on the way up. `gain` is what the removal saves above the subtree being
         // searched.
-        let mut gain = self.bounds(parent).half_area();
+        let mut gain = self.area[parent as usize];
         let mut sibling = self.sibling(node);
         let mut pivot = parent;
         let mut pivot_bounds = self.bounds(sibling);
@@ -183,14 +192,14 @@ impl<'a> Tree<'a> {
                 }
                 if let Some([l, r]) = self.children(x) {
                     // Below `x`, `x` itself grows to hold the node.
-                    let below = here + xb.half_area();
+                    let below = here + self.area[x as usize];
                     stack.push((below, l));
                     stack.push((below, r));
                 }
             }
             if pivot != parent {
                 pivot_bounds = pivot_bounds.union(&self.bounds(sibling));
-                gain += self.bounds(pivot).half_area() - pivot_bounds.half_area();
+                gain += self.area[pivot as usize] - pivot_bounds.half_area();
             }
             if pivot == self.root {
                 break;
@@ -242,6 +251,7 @@ impl<'a> Tree<'a> {
             let b = self.bounds(l).union(&self.bounds(r));
             let m = &mut self.merges[id as usize - self.leaves.len()];
             (m.lo, m.hi) = (b.lo, b.hi);
+            self.area[id as usize] = b.half_area();
             id = self.parent[id as usize];
         }
     }
