@@ -319,35 +319,80 @@ pub(super) struct Clusters {
     pub cost: Vec<f32>,
 }
 
-impl Clusters {
-    fn with_capacity(n: usize) -> Self {
-        Self {
-            cl: Vec::with_capacity(n),
-            cost: Vec::with_capacity(n),
-        }
+/// Where an iteration reads the clusters and writes the next ones: from the leaves into a
+/// buffer, then in place in that buffer. Writes never overtake reads (merged clusters take
+/// the left member's place), so one buffer serves every iteration after the first, and the
+/// leaves stay intact for the layout.
+pub(super) trait Io {
+    /// The clusters this iteration reads.
+    fn clusters(&self) -> &[Cluster];
+    /// The subtree cost of cluster `i`.
+    fn cost(&self, i: usize) -> f32;
+    /// Writes the `to`th cluster of the next iteration; `to` is never past the cluster being
+    /// read.
+    fn put(&mut self, to: usize, c: Cluster, cost: f32);
+
+    /// Copies cluster `i` to slot `to`.
+    #[inline(always)]
+    fn keep(&mut self, i: usize, to: usize) {
+        let c = self.clusters()[i];
+        let cost = self.cost(i);
+        self.put(to, c, cost);
+    }
+
+    /// Merges clusters `a` and `b` into slot `to`.
+    #[inline(always)]
+    fn merge(&mut self, a: usize, b: usize, to: usize, merger: &mut Merger<'_>) {
+        let cl = self.clusters();
+        let (ca, cb) = (cl[a], cl[b]);
+        let (c, cost) = merger.merge(&ca, self.cost(a), &cb, self.cost(b));
+        self.put(to, c, cost);
+    }
+}
+
+/// The first iteration: primitives (their cost computed, not stored) into a buffer.
+struct FromLeaves<'a> {
+    leaves: &'a [Cluster],
+    intersection: f32,
+    dst: &'a mut Clusters,
+}
+
+impl Io for FromLeaves<'_> {
+    #[inline(always)]
+    fn clusters(&self) -> &[Cluster] {
+        self.leaves
     }
 
     #[inline(always)]
-    pub fn push(&mut self, c: Cluster, cost: f32) {
-        self.cl.push(c);
-        self.cost.push(cost);
+    fn cost(&self, i: usize) -> f32 {
+        self.intersection * self.leaves[i].half_area()
     }
 
     #[inline(always)]
-    pub fn copy(&mut self, from: &Self, i: usize) {
-        self.push(from.cl[i], from.cost[i]);
+    fn put(&mut self, _to: usize, c: Cluster, cost: f32) {
+        self.dst.cl.push(c);
+        self.dst.cost.push(cost);
     }
+}
 
-    /// Merges clusters `a` and `b` of `from` into a new cluster here.
+/// Every later iteration, in place.
+pub(super) struct InPlace<'a>(pub &'a mut Clusters);
+
+impl Io for InPlace<'_> {
     #[inline(always)]
-    pub fn merge(&mut self, from: &Self, a: usize, b: usize, merger: &mut Merger<'_>) {
-        let (c, cost) = merger.merge(&from.cl[a], from.cost[a], &from.cl[b], from.cost[b]);
-        self.push(c, cost);
+    fn clusters(&self) -> &[Cluster] {
+        &self.0.cl
     }
 
-    fn clear(&mut self) {
-        self.cl.clear();
-        self.cost.clear();
+    #[inline(always)]
+    fn cost(&self, i: usize) -> f32 {
+        self.0.cost[i]
+    }
+
+    #[inline(always)]
+    fn put(&mut self, to: usize, c: Cluster, cost: f32) {
+        self.0.cl[to] = c;
+        self.0.cost[to] = cost;
     }
 }
 
@@ -362,111 +407,132 @@ fn cluster(
 ) -> (Vec<Merge>, Vec<Cluster>, usize) {
     let n = order.len();
     // One tight loop for the random reads of the boxes, so that many are in flight at once.
-    let cl: Vec<Cluster> = order
+    let leaves: Vec<Cluster> = order
         .iter()
         .enumerate()
         .map(|(slot, &id)| Cluster::leaf(&bounds[id as usize], slot as u32))
         .collect();
-    let cost = cl
-        .iter()
-        .map(|c| rule.intersection * c.half_area())
-        .collect();
-    // The leaves are kept for the layout's leaf boxes (reading `bounds` again would be a
-    // second round of cache misses): the first iteration reads them, later ones ping-pong
-    // between two buffers.
-    let leaves = Clusters { cl, cost };
     let mut merges = Vec::with_capacity(n.saturating_sub(1));
     if n < 2 {
-        return (merges, leaves.cl, 0);
+        return (merges, leaves, 0);
     }
     let mut merger = Merger {
         merges: &mut merges,
         first_merge_id: n as u32,
         rule: *rule,
     };
-    let mut areas = vec![0.0f32; n];
-    let mut search = Search::new(if radius > 1 { n } else { TOP_CLUSTERS });
-    // 0: the configured radius; 1: radius 1 after a stalled iteration; 2: blind pairing after
-    // a stalled radius-1 iteration.
-    let mut fallback = 0;
-    let mut iterate = |src: &Clusters, dst: &mut Clusters| {
-        dst.clear();
-        let radius = match src.cl.len() {
-            ..=TOP_CLUSTERS => radius.max(TOP_RADIUS),
-            _ => radius,
+    let mut driver = Driver {
+        radius,
+        search: Search::new(if radius > 1 { n } else { TOP_CLUSTERS }),
+        fallback: 0,
+    };
+    let mut cur = Clusters {
+        cl: Vec::with_capacity(n),
+        cost: Vec::with_capacity(n),
+    };
+    let first = FromLeaves {
+        leaves: &leaves,
+        intersection: rule.intersection,
+        dst: &mut cur,
+    };
+    driver.step(first, &mut merger);
+    let mut iterations = 1;
+    while cur.cl.len() > 1 {
+        let next = driver.step(InPlace(&mut cur), &mut merger);
+        cur.cl.truncate(next);
+        cur.cost.truncate(next);
+        iterations += 1;
+    }
+    (merges, leaves, iterations)
+}
+
+/// Chooses each iteration's pass.
+struct Driver {
+    radius: u32,
+    search: Search,
+    /// 0: the configured radius; 1: radius 1 after a stalled iteration; 2: blind pairing
+    /// after a stalled radius-1 iteration.
+    fallback: u8,
+}
+
+impl Driver {
+    /// Runs one iteration; returns the number of clusters left.
+    fn step<I: Io>(&mut self, mut io: I, merger: &mut Merger<'_>) -> usize {
+        let count = io.clusters().len();
+        let radius = match count {
+            ..=TOP_CLUSTERS => self.radius.max(TOP_RADIUS),
+            _ => self.radius,
         };
-        match (fallback, radius) {
-            (2.., _) => pair_blindly(src, dst, &mut merger),
-            (1, _) | (_, 1) => pass_radius_one(src, dst, &mut areas, &mut merger),
+        let next = match (self.fallback, radius) {
+            (2.., _) => pair_blindly(&mut io, merger),
+            (1, _) | (_, 1) => pass_radius_one(&mut io, merger),
             _ => {
-                search.find(&src.cl, radius as usize);
-                search.merge_mutual(src, dst, &mut merger);
+                self.search.find(io.clusters(), radius as usize);
+                self.search.merge_mutual(&mut io, merger)
             }
-        }
-        let (count, next) = (src.cl.len(), dst.cl.len());
+        };
         let stalled = (count - next) * STALL_FRACTION < count;
-        fallback = match (stalled, fallback) {
+        self.fallback = match (stalled, self.fallback) {
             (false, _) => 0,
             (true, 0) if radius > 1 => 1,
             (true, _) => 2,
         };
-    };
-    let mut cur = Clusters::with_capacity(n);
-    let mut next = Clusters::with_capacity(n);
-    iterate(&leaves, &mut cur);
-    let mut iterations = 1;
-    while cur.cl.len() > 1 {
-        iterate(&cur, &mut next);
-        std::mem::swap(&mut cur, &mut next);
-        iterations += 1;
+        next
     }
-    (merges, leaves.cl, iterations)
 }
 
 /// The radius-1 iteration: cluster `i` picks `i + 1` when the union to the right is smaller
 /// than the one to the left, so a pair merges when its union is a local minimum of the
-/// sequence of adjacent unions, which one scan finds.
-fn pass_radius_one(src: &Clusters, dst: &mut Clusters, areas: &mut [f32], merger: &mut Merger<'_>) {
-    let count = src.cl.len();
-    let areas = &mut areas[..count - 1];
-    for (a, w) in areas.iter_mut().zip(src.cl.windows(2)) {
-        *a = w[0].union_area(&w[1]);
-    }
+/// sequence of adjacent unions, which one scan finds. Returns the number of clusters left.
+fn pass_radius_one<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
+    let count = io.clusters().len();
+    let area = |io: &I, i: usize| match io.clusters().get(i..i + 2) {
+        Some([a, b]) => a.union_area(b),
+        _ => f32::INFINITY,
+    };
     // Ties go to the pair whose left member has an even slot (the tie rule of `Search`, at
     // distance 1): a run of equal unions (a grid of identical boxes) then merges as
     // (0, 1), (2, 3), ... instead of one pair per iteration.
     let mut i = 0;
+    let mut to = 0;
     let mut left = f32::INFINITY;
+    let mut here = area(io, 0);
     while i + 1 < count {
-        let here = areas[i];
-        let right = areas.get(i + 1).copied().unwrap_or(f32::INFINITY);
+        // Read before the write below: `to <= i`, and slot `i + 2` is still unread.
+        let right = area(io, i + 1);
         let even = i % 2 == 0;
         let i_picks_right = here < left || (here == left && even);
         let next_picks_left = here < right || (here == right && even);
         if i_picks_right && next_picks_left {
-            dst.merge(src, i, i + 1, merger);
+            io.merge(i, i + 1, to, merger);
             left = right;
             i += 2;
+            here = area(io, i);
         } else {
-            dst.copy(src, i);
+            io.keep(i, to);
             left = here;
+            here = right;
             i += 1;
         }
+        to += 1;
     }
     if i < count {
-        dst.copy(src, i);
+        io.keep(i, to);
+        to += 1;
     }
+    to
 }
 
 /// The stall guard's last resort: merges slots (0, 1), (2, 3), ... whatever their areas.
-fn pair_blindly(src: &Clusters, dst: &mut Clusters, merger: &mut Merger<'_>) {
-    let count = src.cl.len();
-    for i in (0..count - 1).step_by(2) {
-        dst.merge(src, i, i + 1, merger);
+fn pair_blindly<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
+    let count = io.clusters().len();
+    for to in 0..count / 2 {
+        io.merge(2 * to, 2 * to + 1, to, merger);
     }
     if count % 2 == 1 {
-        dst.copy(src, count - 1);
+        io.keep(count - 1, count / 2);
     }
+    count.div_ceil(2)
 }
 
 /// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
@@ -609,26 +675,27 @@ pub(super) mod tests {
     #[test]
     fn radius_one_scan_agrees_with_the_search() {
         for n in [2, 3, 4, 5, 50, 1_000] {
-            let src = clusters_of(&coarse_boxes(n, 7));
-            let (mut a, mut b) = (Clusters::default(), Clusters::default());
+            let mut a = clusters_of(&coarse_boxes(n, 7));
+            let mut b = clusters_of(&coarse_boxes(n, 7));
             let (mut ma, mut mb) = (Vec::new(), Vec::new());
             let mut merger = Merger {
                 merges: &mut ma,
                 first_merge_id: n as u32,
                 rule: RULE,
             };
-            pass_radius_one(&src, &mut a, &mut vec![0.0; n], &mut merger);
+            let left_a = pass_radius_one(&mut InPlace(&mut a), &mut merger);
             let mut search = Search::new(n);
-            search.find(&src.cl, 1);
+            search.find(&b.cl, 1);
             let mut merger = Merger {
                 merges: &mut mb,
                 first_merge_id: n as u32,
                 rule: RULE,
             };
-            search.merge_mutual(&src, &mut b, &mut merger);
-            let nodes = |c: &Clusters| c.cl.iter().map(|c| c.node).collect::<Vec<_>>();
-            assert_eq!(nodes(&a), nodes(&b), "n {n}");
-            assert!(a.cl.len() < n, "n {n}: no merge");
+            let left_b = search.merge_mutual(&mut InPlace(&mut b), &mut merger);
+            let nodes =
+                |c: &Clusters, k: usize| c.cl[..k].iter().map(|c| c.node).collect::<Vec<_>>();
+            assert_eq!(nodes(&a, left_a), nodes(&b, left_b), "n {n}");
+            assert!(left_a < n, "n {n}: no merge");
         }
     }
 

@@ -1,7 +1,7 @@
 //! PLOC's nearest-neighbour search for a radius above 1: every cluster's best partner among
 //! the `radius` clusters on either side of it on the curve.
 
-use super::ploc::{Cluster, Clusters, Merger, fmax, fmin};
+use super::ploc::{Cluster, Io, Merger, fmax, fmin};
 
 /// Clusters handled together: their boxes are copied into arrays of one coordinate each (so
 /// that the area loop vectorises) and stay in L1 across the `radius` sweeps over them.
@@ -118,19 +118,25 @@ impl Search {
         }
     }
 
-    /// Merges the mutual pairs of `src` into `dst`, each at its left member's place, and
-    /// copies the rest.
-    pub fn merge_mutual(&self, src: &Clusters, dst: &mut Clusters, merger: &mut Merger<'_>) {
-        for i in 0..src.cl.len() {
+    /// Merges the mutual pairs, each into its left member's place, and compacts the rest;
+    /// returns the number of clusters left.
+    pub fn merge_mutual<I: Io>(&self, io: &mut I, merger: &mut Merger<'_>) -> usize {
+        let mut to = 0;
+        for i in 0..io.clusters().len() {
             match self.neighbour(i) {
                 Some(j) if self.neighbour(j) == Some(i) => {
                     if j > i {
-                        dst.merge(src, i, j, merger);
+                        io.merge(i, j, to, merger);
+                        to += 1;
                     }
                 }
-                _ => dst.copy(src, i),
+                _ => {
+                    io.keep(i, to);
+                    to += 1;
+                }
             }
         }
+        to
     }
 }
 
