@@ -87,14 +87,37 @@ impl Quantizer {
     pub fn code(&self, p: Vec3A) -> u64 {
         // `as` saturates and maps NaN to 0, so even a point outside the grid gets a cell.
         let q = ((p - self.origin) * self.scale).min(self.last).as_uvec3();
-        (spread3(q.x) << 2) | (spread3(q.y) << 1) | spread3(q.z)
+        (spread14(q.x) << 2) | (spread14(q.y) << 1) | spread14(q.z)
     }
 }
 
+/// Bits 0 to 6 spread to bits 0, 3, ..., 18.
+const SPREAD7: [u32; 128] = {
+    let mut table = [0u32; 128];
+    let mut i = 0;
+    while i < 128 {
+        let mut bit = 0;
+        while bit < 7 {
+            table[i] |= ((i as u32 >> bit) & 1) << (3 * bit);
+            bit += 1;
+        }
+        i += 1;
+    }
+    table
+};
+
+/// Spreads the low 14 bits of `x` so that bit `i` lands on bit `3 i`, by two lookups: a
+/// third of the instructions of the shift-and-mask version, which dominated making the keys.
+#[inline(always)]
+fn spread14(x: u32) -> u64 {
+    const _: () = assert!(MAX_AXIS_BITS <= 14);
+    u64::from(SPREAD7[(x & 127) as usize]) | (u64::from(SPREAD7[((x >> 7) & 127) as usize]) << 21)
+}
+
 /// Spreads the low 21 bits of `x` so that bit `i` lands on bit `3 i` (the "magic bits" of
-/// Baert et al., as in every Morton encoder).
-#[inline]
-pub(super) fn spread3(x: u32) -> u64 {
+/// Baert et al., as in every Morton encoder): the reference for [`spread14`].
+#[cfg(test)]
+fn spread3(x: u32) -> u64 {
     let mut x = u64::from(x & 0x1f_ffff);
     x = (x | x << 32) & 0x001f_0000_0000_ffff;
     x = (x | x << 16) & 0x001f_0000_ff00_00ff;
@@ -247,6 +270,9 @@ mod tests {
     #[test]
     fn codes_interleave_x_highest() {
         assert_eq!(spread3(0b111), 0b1001001);
+        for x in 0..1 << 14 {
+            assert_eq!(spread14(x), spread3(x));
+        }
         let q = Quantizer::new(&Aabb::new(Vec3A::ZERO, Vec3A::ONE), 1);
         assert_eq!(q.code(Vec3A::new(1.0, 0.0, 0.0)), 0b100);
         assert_eq!(q.code(Vec3A::new(0.0, 0.0, 1.0)), 0b001);
