@@ -3,8 +3,8 @@
 //! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
 //!   rules.
 //! - `build` and the `split_*` files: the top-down builder.
-//! - `morton` and `ploc`: the bottom-up builder (PLOC), which shares the top-down builder's
-//!   output format and stopping rules.
+//! - `morton`, `ploc`, `ploc_search` and `reinsert`: the bottom-up builder (PLOC, with optional
+//!   reinsertion), which shares the top-down builder's output format and stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
 //! - [`SphereBvh`]: the same topology bounded by spheres instead of boxes.
