@@ -3,7 +3,7 @@
 //! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
 //!   rules.
 //! - `build` and the `split_*` files: the top-down builder.
-//! - `morton`, `ploc`, `ploc_search` and `reinsert`: the bottom-up builder (PLOC, with optional
+//! - `morton`, `ploc`, `ploc_search`, `ploc_tree` and `reinsert`: the bottom-up builder (PLOC, with optional
 //!   reinsertion), which shares the top-down builder's output format and stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
@@ -21,6 +21,7 @@ mod morton;
 mod node;
 mod ploc;
 mod ploc_search;
+mod ploc_tree;
 mod reinsert;
 mod sphere_tree;
 mod split_binned;

@@ -12,7 +12,8 @@
 //! It works on PLOC's merge records, before the tree is collapsed into leaves and laid out.
 
 use super::morton::radix_sort;
-use super::ploc::{COLLAPSED, Cluster, Merge, fmax, fmin};
+use super::ploc::{Cluster, fmax, fmin};
+use super::ploc_tree::{COLLAPSED, Merge};
 
 /// No node (the root's parent).
 const NONE: u32 = u32::MAX;
