@@ -88,6 +88,14 @@ fn ray_contenders<'a>(
             rays,
         ),
         accel_contender("accel median", SplitStrategy::Median, tris, boxes, rays),
+        accel_contender(
+            "accel ploc fastest",
+            SplitStrategy::PLOC_FASTEST,
+            tris,
+            boxes,
+            rays,
+        ),
+        accel_contender("accel ploc", SplitStrategy::PLOC, tris, boxes, rays),
     ];
 
     // The wide layouts over the same binned-16 tree (2-, 4- and 8-wide side by side).

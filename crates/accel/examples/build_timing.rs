@@ -29,6 +29,12 @@ fn main() {
         SplitStrategy::Median,
         SplitStrategy::BinnedSah { bins: 8 },
         SplitStrategy::BinnedSah { bins: 16 },
+        SplitStrategy::PLOC_FASTEST,
+        SplitStrategy::Ploc {
+            search_radius: 4,
+            reinsert_per_mille: 0,
+        },
+        SplitStrategy::PLOC,
     ] {
         let cfg = BuildConfig::with_split(split);
         let mut best = f64::INFINITY;

@@ -8,7 +8,7 @@
 //!   classification.
 //!
 //! - [`bvh`]: the static BVH with every textbook build choice (midpoint, median, binned and
-//!   sweep SAH; leaf size, depth and cost stopping rules).
+//!   sweep SAH top-down, PLOC bottom-up; leaf size, depth and cost stopping rules).
 //! - [`dynamic`]: the dynamic BVH (insert, remove and update by handle, batched refit, SAH
 //!   insertion with rotations, incremental optimisation, rebuilds) and the static/dynamic pair.
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all

@@ -12,12 +12,26 @@ use accel::{
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, random_frustum, rays, scene};
 
-const STRATEGIES: [SplitStrategy; 5] = [
+const STRATEGIES: [SplitStrategy; 8] = [
     SplitStrategy::Midpoint,
     SplitStrategy::Median,
     SplitStrategy::BinnedSah { bins: 16 },
     SplitStrategy::BinnedSah { bins: 4 },
     SplitStrategy::SweepSah,
+    // Radius 1 takes PLOC's one-scan path, larger radii the general search; reinsertion
+    // rebuilds the collapse and the layout after moving nodes.
+    SplitStrategy::Ploc {
+        search_radius: 1,
+        reinsert_per_mille: 0,
+    },
+    SplitStrategy::Ploc {
+        search_radius: 6,
+        reinsert_per_mille: 0,
+    },
+    SplitStrategy::Ploc {
+        search_radius: 2,
+        reinsert_per_mille: 50,
+    },
 ];
 
 fn configs() -> Vec<BuildConfig> {
@@ -347,6 +361,165 @@ fn parallel_build_equals_serial_build() {
             let a = serial.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
             let b = parallel.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
             assert_eq!(a.map(|h| h.t), b.map(|h| h.t));
+        }
+    }
+}
+
+/// The PLOC strategies of `STRATEGIES`.
+fn ploc_strategies() -> impl Iterator<Item = SplitStrategy> {
+    STRATEGIES
+        .into_iter()
+        .filter(|s| matches!(s, SplitStrategy::Ploc { .. }))
+}
+
+#[test]
+fn ploc_matches_brute_force_on_large_scenes_and_odd_input() {
+    for split in ploc_strategies() {
+        let cfg = BuildConfig::with_split(split);
+        for (i, kind) in [
+            SceneKind::Uniform,
+            SceneKind::Clustered,
+            SceneKind::Degenerate,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            check_scene(&scene(kind, 20_000, 177 + i as u64), &cfg, 99, 40);
+        }
+        // Invalid boxes left out, infinite ones kept.
+        let mut boxes = scene(SceneKind::Uniform, 100, 3);
+        boxes[5] = Aabb::new(glam::Vec3A::NAN, glam::Vec3A::ONE);
+        boxes[6] = Aabb::EMPTY;
+        boxes[7] = Aabb::EVERYTHING;
+        boxes[8] = Aabb::new(glam::Vec3A::splat(-f32::MAX), glam::Vec3A::splat(f32::MAX));
+        boxes[9] = Aabb::new(
+            glam::Vec3A::new(f32::NEG_INFINITY, 0.0, 0.0),
+            glam::Vec3A::ZERO,
+        );
+        let bvh = Bvh::build(&boxes, &cfg);
+        bvh.validate(&boxes).unwrap();
+        assert_eq!(bvh.primitive_count(), 98);
+        let ray = accel::Ray::new(glam::Vec3A::splat(500.0), glam::Vec3A::X);
+        let mut all = Vec::new();
+        bvh.cast_ray_all(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]), &mut all);
+        let ids: Vec<u32> = all.iter().map(|h| h.primitive).collect();
+        assert_eq!(ids, vec![7, 8], "{split:?}");
+        // Nothing valid, one, two.
+        for n in 0..3 {
+            let mut boxes = vec![Aabb::EMPTY; 4];
+            for b in boxes.iter_mut().take(n) {
+                *b = Aabb::new(glam::Vec3A::ZERO, glam::Vec3A::ONE);
+            }
+            let bvh = Bvh::build(&boxes, &cfg);
+            bvh.validate(&boxes).unwrap();
+            assert_eq!(bvh.primitive_count(), n);
+        }
+    }
+}
+
+/// Boxes nested like onions and sorted by size make every cluster prefer its smaller
+/// neighbour: PLOC alone would merge one pair per iteration (quadratic, and as deep as the
+/// input is long). The stall guard keeps it fast and shallow; reinsertion chains them (their
+/// SAH optimum), and the depth limit then rebuilds the deep part top-down rather than leave
+/// one huge leaf.
+#[test]
+fn ploc_stays_shallow_on_nested_boxes() {
+    let n = 200_000;
+    let boxes: Vec<Aabb> = (0..n)
+        .map(|i| {
+            Aabb::from_center_half_extents(glam::Vec3A::ZERO, glam::Vec3A::splat(1.0 + i as f32))
+        })
+        .collect();
+    for split in ploc_strategies() {
+        for max_depth in [64, 1000] {
+            let cfg = BuildConfig {
+                max_depth,
+                ..BuildConfig::with_split(split)
+            };
+            let t = std::time::Instant::now();
+            let bvh = Bvh::build(&boxes, &cfg);
+            let secs = t.elapsed().as_secs_f64();
+            bvh.validate(&boxes).unwrap();
+            let s = tree_stats(&bvh, &cfg.sah);
+            println!("{split:?} max_depth {max_depth}: {secs:.2} s, {s:?}");
+            assert!(s.max_depth <= max_depth as usize, "{split:?}: {s:?}");
+            assert!(
+                s.max_leaf_size <= cfg.max_leaf_size as usize,
+                "{split:?}: {s:?}"
+            );
+            assert!(secs < 5.0, "{split:?}: {secs:.1} s");
+        }
+    }
+}
+
+/// Leaves never exceed `max_leaf_size` and the tree never exceeds `max_depth`, with and
+/// without SAH termination; the SAH collapse never makes the tree costlier than leaves of one.
+#[test]
+fn ploc_honours_the_stopping_rules() {
+    let boxes = scene(SceneKind::Clustered, 5_000, 8);
+    for split in ploc_strategies() {
+        let singles = tree_stats(
+            &Bvh::build(
+                &boxes,
+                &BuildConfig {
+                    max_leaf_size: 1,
+                    ..BuildConfig::with_split(split)
+                },
+            ),
+            &SahCosts::default(),
+        );
+        assert_eq!(singles.max_leaf_size, 1, "{split:?}");
+        for max_leaf_size in [1, 2, 4, 8, 16] {
+            for sah_termination in [false, true] {
+                let cfg = BuildConfig {
+                    max_leaf_size,
+                    sah_termination,
+                    ..BuildConfig::with_split(split)
+                };
+                let bvh = Bvh::build(&boxes, &cfg);
+                bvh.validate(&boxes).unwrap();
+                let s = tree_stats(&bvh, &cfg.sah);
+                assert!(s.max_leaf_size <= max_leaf_size as usize, "{cfg:?}: {s:?}");
+                if sah_termination {
+                    assert!(s.sah_cost <= singles.sah_cost, "{cfg:?}: {s:?}");
+                } else {
+                    // Every subtree that fits in a leaf is one.
+                    assert!(
+                        s.leaves * max_leaf_size as usize >= boxes.len(),
+                        "{cfg:?}: {s:?}"
+                    );
+                }
+            }
+        }
+        for max_depth in [0, 1, 3, 7] {
+            let cfg = BuildConfig {
+                max_depth,
+                ..BuildConfig::with_split(split)
+            };
+            let bvh = Bvh::build(&boxes, &cfg);
+            bvh.validate(&boxes).unwrap();
+            let s = tree_stats(&bvh, &cfg.sah);
+            assert!(s.max_depth <= max_depth as usize, "{cfg:?}: {s:?}");
+        }
+    }
+}
+
+/// PLOC trees cost about what binned SAH trees cost (the paper reports parity with SAH
+/// builders); a gross regression (a broken neighbour search) would show here.
+#[test]
+fn ploc_sah_is_close_to_binned_sah() {
+    for (i, kind) in [SceneKind::Uniform, SceneKind::Clustered]
+        .into_iter()
+        .enumerate()
+    {
+        let boxes = scene(kind, 50_000, 31 + i as u64);
+        let costs = SahCosts::default();
+        let binned = tree_stats(&Bvh::build(&boxes, &BuildConfig::default()), &costs);
+        for split in ploc_strategies() {
+            let ploc = tree_stats(&Bvh::build(&boxes, &BuildConfig::with_split(split)), &costs);
+            let ratio = ploc.sah_cost / binned.sah_cost;
+            println!("{kind:?} {split:?}: ploc/binned = {ratio:.4}");
+            assert!(ratio <= 1.12, "{kind:?} {split:?}: ploc/binned = {ratio}");
         }
     }
 }

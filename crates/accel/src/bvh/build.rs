@@ -1,8 +1,9 @@
-//! The top-down builder: one driver, four ways to split.
+//! The top-down builder: one driver, four ways to split (and the dispatch to the bottom-up
+//! PLOC builder, which shares its output format).
 
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
-use super::{split_binned, split_object, split_sweep};
+use super::{ploc, split_binned, split_object, split_sweep};
 use crate::Aabb;
 use glam::Vec3A;
 
@@ -16,21 +17,27 @@ pub(super) struct BuildPrim {
 }
 
 impl BuildPrim {
-    /// Infinite boxes are valid but have no finite centre; clamping the corners to the largest
-    /// finite float first keeps every centroid finite, so binning never sees NaN.
-    fn new(bounds: Aabb, index: u32) -> Self {
-        let lo = bounds
-            .min
-            .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
-        let hi = bounds
-            .max
-            .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+    pub(super) fn new(bounds: Aabb, index: u32) -> Self {
         Self {
             bounds,
-            centroid: lo * 0.5 + hi * 0.5,
+            centroid: centroid(&bounds),
             index,
         }
     }
+}
+
+/// The centre of a valid box, always finite. Infinite boxes are valid but have no finite
+/// centre; clamping the corners to the largest finite float first keeps every centroid finite,
+/// so binning and Morton codes never see NaN.
+#[inline]
+pub(super) fn centroid(bounds: &Aabb) -> Vec3A {
+    let lo = bounds
+        .min
+        .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+    let hi = bounds
+        .max
+        .clamp(Vec3A::splat(-f32::MAX), Vec3A::splat(f32::MAX));
+    lo * 0.5 + hi * 0.5
 }
 
 /// What a split strategy decided for one node.
@@ -48,6 +55,13 @@ pub(super) enum SplitOutcome {
 /// Primitives with invalid bounds (NaN, or empty) are left out: they could never be hit, and a
 /// NaN in a node box would hide its whole subtree from every query.
 pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+    if let SplitStrategy::Ploc {
+        search_radius,
+        reinsert_per_mille,
+    } = config.split
+    {
+        return ploc::build_nodes(bounds, config, search_radius, reinsert_per_mille);
+    }
     let mut prims = collect_prims(bounds);
     let nodes = build_subtree(&mut prims, config, 0, 0);
     (nodes, prims.iter().map(|p| p.index).collect())
@@ -160,6 +174,11 @@ fn choose_split(
             fits_in_leaf,
         ),
         SplitStrategy::SweepSah => split_sweep::split(prims, node_bounds, config, fits_in_leaf),
+        // PLOC builds bottom-up and never reaches the top-down driver (`build_nodes` and the
+        // parallel build hand it to `ploc`); should it, an object-median split keeps the tree
+        // valid.
+        SplitStrategy::Ploc { .. } if fits_in_leaf => SplitOutcome::Leaf,
+        SplitStrategy::Ploc { .. } => split_object::median(prims, centroid_bounds),
     }
 }
 

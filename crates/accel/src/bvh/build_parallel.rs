@@ -1,7 +1,7 @@
 //! The parallel build: the same splits as the serial builder, subtrees built on rayon's pool.
 
 use super::build::{BuildPrim, build_subtree, collect_prims, split_node};
-use super::config::BuildConfig;
+use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
 use crate::Aabb;
 
@@ -11,10 +11,16 @@ const SERIAL_BELOW: usize = 4096;
 /// Builds like [`super::build::build_nodes`], splitting the top of the tree serially and
 /// handing the two halves of every large node to `rayon::join`. The result is the tree the
 /// serial build makes (same splits, same leaves), laid out in another node order.
+///
+/// PLOC is built serially: its iterations are sequential scans, and this crate's version is
+/// the single-threaded one.
 pub(super) fn build_nodes_parallel(
     bounds: &[Aabb],
     config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>) {
+    if let SplitStrategy::Ploc { .. } = config.split {
+        return super::build::build_nodes(bounds, config);
+    }
     let mut prims = collect_prims(bounds);
     let nodes = build_parallel(&mut prims, config, 0, 0);
     (nodes, prims.iter().map(|p| p.index).collect())

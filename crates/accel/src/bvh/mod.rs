@@ -1,7 +1,10 @@
-//! The static BVH: a flat array of 32-byte binary nodes, built top-down.
+//! The static BVH: a flat array of 32-byte binary nodes, built top-down or bottom-up.
 //!
-//! - [`config`]: split strategies (midpoint, median, binned and sweep SAH) and stopping rules.
+//! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
+//!   rules.
 //! - `build` and the `split_*` files: the top-down builder.
+//! - `morton`, `ploc`, `ploc_search`, `ploc_tree` and `reinsert`: the bottom-up builder (PLOC, with optional
+//!   reinsertion), which shares the top-down builder's output format and stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
 //! - [`SphereBvh`]: the same topology bounded by spheres instead of boxes.
@@ -14,7 +17,12 @@ mod build;
 #[cfg(feature = "rayon")]
 mod build_parallel;
 pub mod config;
+mod morton;
 mod node;
+mod ploc;
+mod ploc_search;
+mod ploc_tree;
+mod reinsert;
 mod sphere_tree;
 mod split_binned;
 mod split_object;
@@ -25,6 +33,7 @@ pub mod wide;
 
 pub use config::{BuildConfig, SahCosts, SplitStrategy};
 pub use node::BvhNode;
+pub use ploc::MAX_SEARCH_RADIUS;
 pub use sphere_tree::SphereBvh;
 pub use split_binned::MAX_BINS;
 

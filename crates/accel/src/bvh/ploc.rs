@@ -1,0 +1,528 @@
+//! PLOC, Parallel Locally-Ordered Clustering (Meister & Bittner 2018, "Parallel Locally-Ordered
+//! Clustering for Bounding Volume Hierarchy Construction"), run on one thread.
+//!
+//! Bottom-up: primitives are sorted along a Morton curve ([`super::morton`]) and become the
+//! first clusters. Each iteration, every cluster picks the neighbour within `radius` places on
+//! the curve whose union with it has the smallest surface area; pairs that pick each other
+//! merge into one cluster, which takes the left one's place. The list shrinks until one
+//! cluster, the root, is left.
+//!
+//! Costs are known as the tree grows, so each merge also decides whether its subtree would be
+//! cheaper as one leaf (the stopping rules of [`BuildConfig`]); a final top-down pass
+//! ([`super::ploc_tree`]) lays the tree out in the builder's format (children after their
+//! parent, leaves as contiguous ranges of the primitive order).
+
+use super::build::centroid;
+use super::config::{BuildConfig, SplitStrategy};
+use super::morton::{KeyLayout, Quantizer, radix_sort};
+use super::node::BvhNode;
+use super::ploc_search::Search;
+use super::ploc_tree::{
+    COLLAPSED, Collapse, Merge, collapse, layout_tree, post_order, subtree_heights,
+};
+use super::reinsert::Tree;
+use crate::Aabb;
+
+/// The largest search radius; larger requests are clamped.
+pub const MAX_SEARCH_RADIUS: u32 = 64;
+
+/// An iteration that merges fewer than one cluster in this many is stalled. Ties and NaN
+/// areas can leave PLOC merging a single pair per iteration (boxes nested like onions, sorted
+/// by size, chain up one at a time): quadratic time, and a tree as deep as the input is long.
+/// A stalled iteration is followed by one at radius 1 and, if that stalls too, by one that
+/// pairs neighbours blindly, which keeps every run at O(log n) iterations and so bounds the
+/// depth. Normal input never stalls: larger radii merge fewer pairs per iteration, down to
+/// about one cluster in sixteen at radius 14.
+const STALL_FRACTION: usize = 32;
+
+/// The last this many clusters search at least [`TOP_RADIUS`]. At the top of the tree a
+/// handful of large clusters is left, and neighbours on the curve need not be near in space
+/// (the curve jumps between distant regions): at radius 1, scenes of a few dense clusters far
+/// apart paired distant clusters early and cost 1.3 times the binned SAH tree, against 1.03
+/// with this. Elsewhere it changes nothing measurable.
+const TOP_CLUSTERS: usize = 32;
+
+/// See [`TOP_CLUSTERS`].
+const TOP_RADIUS: u32 = 4;
+
+/// Reinsertion rounds (see [`Tree::optimize`]).
+const REINSERT_ROUNDS: u32 = 4;
+
+/// A live cluster: its box, its tree node and how many primitives it holds. 32 bytes, so a
+/// move is two vector copies.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub(super) struct Cluster {
+    pub lo: [f32; 3],
+    /// The cluster's tree node (see [`Merge`]).
+    pub node: u32,
+    pub hi: [f32; 3],
+    pub prims: u32,
+}
+
+#[inline(always)]
+pub(super) fn fmin(a: f32, b: f32) -> f32 {
+    // The plain compare, not `f32::min`: this is one `minss`, and boxes here are never NaN.
+    if a < b { a } else { b }
+}
+
+#[inline(always)]
+pub(super) fn fmax(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+impl Cluster {
+    pub fn leaf(b: &Aabb, slot: u32) -> Self {
+        Self {
+            lo: b.min.to_array(),
+            node: slot,
+            hi: b.max.to_array(),
+            prims: 1,
+        }
+    }
+
+    #[inline(always)]
+    pub fn half_area(&self) -> f32 {
+        let (lo, hi) = (self.lo, self.hi);
+        let (dx, dy, dz) = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+        dx * dy + dy * dz + dz * dx
+    }
+
+    /// The smallest cluster box holding both (node and count left to the caller).
+    #[inline(always)]
+    fn union(&self, o: &Self) -> Self {
+        let (a, b) = (self, o);
+        Self {
+            lo: [
+                fmin(a.lo[0], b.lo[0]),
+                fmin(a.lo[1], b.lo[1]),
+                fmin(a.lo[2], b.lo[2]),
+            ],
+            node: 0,
+            hi: [
+                fmax(a.hi[0], b.hi[0]),
+                fmax(a.hi[1], b.hi[1]),
+                fmax(a.hi[2], b.hi[2]),
+            ],
+            prims: 0,
+        }
+    }
+
+    /// Half the surface area of the union of two clusters.
+    #[inline(always)]
+    pub fn union_area(&self, o: &Self) -> f32 {
+        self.union(o).half_area()
+    }
+}
+
+/// Records merges: what every pass hands its pairs to.
+pub(super) struct Merger<'a> {
+    merges: &'a mut Vec<Merge>,
+    first_merge_id: u32,
+    rule: Collapse,
+}
+
+impl Merger<'_> {
+    /// Merges two clusters with subtree costs `cost_a` and `cost_b`: records the merge and
+    /// whether its subtree is better as one leaf; returns the new cluster and its cost.
+    #[inline(always)]
+    pub fn merge(&mut self, a: &Cluster, cost_a: f32, b: &Cluster, cost_b: f32) -> (Cluster, f32) {
+        let prims = a.prims + b.prims;
+        let m = Cluster {
+            node: self.first_merge_id + self.merges.len() as u32,
+            prims,
+            ..a.union(b)
+        };
+        let (collapse, cost) = self.rule.decide(prims, m.half_area(), cost_a, cost_b);
+        self.merges.push(Merge {
+            lo: m.lo,
+            left: a.node,
+            hi: m.hi,
+            right: b.node | if collapse { COLLAPSED } else { 0 },
+        });
+        (m, cost)
+    }
+}
+
+/// Builds the tree over the valid boxes of `bounds` with PLOC: the same output as
+/// [`super::build::build_nodes`] (node 0 the root, children after their parent, leaves as
+/// contiguous ranges of the returned primitive order, invalid boxes left out).
+pub(super) fn build_nodes(
+    bounds: &[Aabb],
+    config: &BuildConfig,
+    radius: u32,
+    reinsert_per_mille: u32,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    assert!(
+        bounds.len() < u32::MAX as usize,
+        "a BVH holds at most u32::MAX - 1 primitives"
+    );
+    let mut centroids = Aabb::EMPTY;
+    let mut n = 0usize;
+    for b in bounds {
+        if b.is_valid() {
+            centroids = centroids.grow(centroid(b));
+            n += 1;
+        }
+    }
+    if n >= COLLAPSED as usize / 2 {
+        // Node ids would reach the collapse flag: build top-down instead.
+        let top_down = BuildConfig {
+            split: SplitStrategy::BinnedSah { bins: 16 },
+            ..*config
+        };
+        return super::build::build_nodes(bounds, &top_down);
+    }
+
+    let layout = KeyLayout::for_ids(bounds.len());
+    let grid = Quantizer::new(&centroids, layout.axis_bits);
+    let mut keys = Vec::with_capacity(n);
+    for (i, b) in bounds.iter().enumerate() {
+        if b.is_valid() {
+            keys.push((grid.code(centroid(b)) << layout.index_bits) | i as u64);
+        }
+    }
+    radix_sort(&mut keys, layout.code_bits());
+    let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
+    drop(keys);
+
+    let rule = Collapse {
+        max_leaf: config.max_leaf_size,
+        by_sah: config.sah_termination,
+        traversal: config.sah.traversal,
+        intersection: config.sah.intersection,
+    };
+    let radius = radius.clamp(1, MAX_SEARCH_RADIUS);
+    if reinsert_per_mille == 0 || n < 3 {
+        let (merges, leaves, iterations) = cluster(bounds, &order, radius, &rule);
+        let root = (2 * n).saturating_sub(2) as u32;
+        // Each iteration adds at most one level, so only a run of more iterations than
+        // `max_depth` can need the depth fallback, and only then are heights worth computing.
+        let heights = (iterations > config.max_depth as usize)
+            .then(|| subtree_heights(n, &merges, &post_order(n, &merges, root)));
+        return layout_tree(&leaves, &order, &merges, root, heights.as_deref(), config);
+    }
+    // Reinsertion moves nodes of the binary tree; the stopping rules are applied after it.
+    let binary = Collapse {
+        max_leaf: 0,
+        ..rule
+    };
+    let (mut merges, leaves, _) = cluster(bounds, &order, radius, &binary);
+    let mut tree = Tree::new(&leaves, &mut merges);
+    let batch = (2 * n - 1) * reinsert_per_mille.min(1000) as usize / 1000;
+    tree.optimize(batch, REINSERT_ROUNDS);
+    let root = tree.root();
+    let post_order = post_order(n, &merges, root);
+    collapse(&leaves, &mut merges, &post_order, &rule);
+    // Reinsertion deepens trees freely (nested boxes become a chain, their SAH optimum).
+    let heights = subtree_heights(n, &merges, &post_order);
+    layout_tree(&leaves, &order, &merges, root, Some(&heights), config)
+}
+
+/// Clusters and the SAH costs of their subtrees (area-weighted, not divided by the root's
+/// area; collapsed where a leaf is cheaper).
+#[derive(Debug, Default)]
+pub(super) struct Clusters {
+    pub cl: Vec<Cluster>,
+    pub cost: Vec<f32>,
+}
+
+/// Where an iteration reads the clusters and writes the next ones: from the leaves into a
+/// buffer, then in place in that buffer. Writes never overtake reads (merged clusters take
+/// the left member's place), so one buffer serves every iteration after the first, and the
+/// leaves stay intact for the layout.
+pub(super) trait Io {
+    /// The clusters this iteration reads.
+    fn clusters(&self) -> &[Cluster];
+    /// The subtree cost of cluster `i`.
+    fn cost(&self, i: usize) -> f32;
+    /// Writes the `to`th cluster of the next iteration; `to` is never past the cluster being
+    /// read.
+    fn put(&mut self, to: usize, c: Cluster, cost: f32);
+
+    /// Copies cluster `i` to slot `to`.
+    #[inline(always)]
+    fn keep(&mut self, i: usize, to: usize) {
+        let c = self.clusters()[i];
+        let cost = self.cost(i);
+        self.put(to, c, cost);
+    }
+
+    /// Merges clusters `a` and `b` into slot `to`.
+    #[inline(always)]
+    fn merge(&mut self, a: usize, b: usize, to: usize, merger: &mut Merger<'_>) {
+        let cl = self.clusters();
+        let (ca, cb) = (cl[a], cl[b]);
+        let (c, cost) = merger.merge(&ca, self.cost(a), &cb, self.cost(b));
+        self.put(to, c, cost);
+    }
+}
+
+/// The first iteration: primitives (their cost computed, not stored) into a buffer.
+struct FromLeaves<'a> {
+    leaves: &'a [Cluster],
+    intersection: f32,
+    dst: &'a mut Clusters,
+}
+
+impl Io for FromLeaves<'_> {
+    #[inline(always)]
+    fn clusters(&self) -> &[Cluster] {
+        self.leaves
+    }
+
+    #[inline(always)]
+    fn cost(&self, i: usize) -> f32 {
+        self.intersection * self.leaves[i].half_area()
+    }
+
+    #[inline(always)]
+    fn put(&mut self, _to: usize, c: Cluster, cost: f32) {
+        self.dst.cl.push(c);
+        self.dst.cost.push(cost);
+    }
+}
+
+/// Every later iteration, in place.
+pub(super) struct InPlace<'a>(pub &'a mut Clusters);
+
+impl Io for InPlace<'_> {
+    #[inline(always)]
+    fn clusters(&self) -> &[Cluster] {
+        &self.0.cl
+    }
+
+    #[inline(always)]
+    fn cost(&self, i: usize) -> f32 {
+        self.0.cost[i]
+    }
+
+    #[inline(always)]
+    fn put(&mut self, to: usize, c: Cluster, cost: f32) {
+        self.0.cl[to] = c;
+        self.0.cost[to] = cost;
+    }
+}
+
+/// Runs the clustering over the primitives in curve order; returns the merges (the last one
+/// the root; none for fewer than two primitives), the primitives' boxes in curve order and the
+/// number of iterations.
+fn cluster(
+    bounds: &[Aabb],
+    order: &[u32],
+    radius: u32,
+    rule: &Collapse,
+) -> (Vec<Merge>, Vec<Cluster>, usize) {
+    let n = order.len();
+    // One tight loop for the random reads of the boxes, so that many are in flight at once.
+    let leaves: Vec<Cluster> = order
+        .iter()
+        .enumerate()
+        .map(|(slot, &id)| Cluster::leaf(&bounds[id as usize], slot as u32))
+        .collect();
+    let mut merges = Vec::with_capacity(n.saturating_sub(1));
+    if n < 2 {
+        return (merges, leaves, 0);
+    }
+    let mut merger = Merger {
+        merges: &mut merges,
+        first_merge_id: n as u32,
+        rule: *rule,
+    };
+    let mut driver = Driver {
+        radius,
+        search: Search::new(if radius > 1 { n } else { TOP_CLUSTERS }),
+        fallback: 0,
+    };
+    let mut cur = Clusters {
+        cl: Vec::with_capacity(n),
+        cost: Vec::with_capacity(n),
+    };
+    let first = FromLeaves {
+        leaves: &leaves,
+        intersection: rule.intersection,
+        dst: &mut cur,
+    };
+    driver.step(first, &mut merger);
+    let mut iterations = 1;
+    while cur.cl.len() > 1 {
+        let next = driver.step(InPlace(&mut cur), &mut merger);
+        cur.cl.truncate(next);
+        cur.cost.truncate(next);
+        iterations += 1;
+    }
+    (merges, leaves, iterations)
+}
+
+/// Chooses each iteration's pass.
+struct Driver {
+    radius: u32,
+    search: Search,
+    /// 0: the configured radius; 1: radius 1 after a stalled iteration; 2: blind pairing
+    /// after a stalled radius-1 iteration.
+    fallback: u8,
+}
+
+impl Driver {
+    /// Runs one iteration; returns the number of clusters left.
+    fn step<I: Io>(&mut self, mut io: I, merger: &mut Merger<'_>) -> usize {
+        let count = io.clusters().len();
+        let radius = match count {
+            ..=TOP_CLUSTERS => self.radius.max(TOP_RADIUS),
+            _ => self.radius,
+        };
+        let next = match (self.fallback, radius) {
+            (2.., _) => pair_blindly(&mut io, merger),
+            (1, _) | (_, 1) => pass_radius_one(&mut io, merger),
+            _ => {
+                self.search.find(io.clusters(), radius as usize);
+                self.search.merge_mutual(&mut io, merger)
+            }
+        };
+        let stalled = (count - next) * STALL_FRACTION < count;
+        self.fallback = match (stalled, self.fallback) {
+            (false, _) => 0,
+            (true, 0) if radius > 1 => 1,
+            (true, _) => 2,
+        };
+        next
+    }
+}
+
+/// The radius-1 iteration: cluster `i` picks `i + 1` when the union to the right is smaller
+/// than the one to the left, so a pair merges when its union is a local minimum of the
+/// sequence of adjacent unions, which one scan finds. Returns the number of clusters left.
+fn pass_radius_one<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
+    let count = io.clusters().len();
+    let area = |io: &I, i: usize| match io.clusters().get(i..i + 2) {
+        Some([a, b]) => a.union_area(b),
+        _ => f32::INFINITY,
+    };
+    // Ties go to the pair whose left member has an even slot (the tie rule of `Search`, at
+    // distance 1): a run of equal unions (a grid of identical boxes) then merges as
+    // (0, 1), (2, 3), ... instead of one pair per iteration.
+    let mut i = 0;
+    let mut to = 0;
+    let mut left = f32::INFINITY;
+    let mut here = area(io, 0);
+    while i + 1 < count {
+        // Read before the write below: `to <= i`, and slot `i + 2` is still unread.
+        let right = area(io, i + 1);
+        let even = i % 2 == 0;
+        let i_picks_right = here < left || (here == left && even);
+        let next_picks_left = here < right || (here == right && even);
+        if i_picks_right && next_picks_left {
+            io.merge(i, i + 1, to, merger);
+            left = right;
+            i += 2;
+            here = area(io, i);
+        } else {
+            io.keep(i, to);
+            left = here;
+            here = right;
+            i += 1;
+        }
+        to += 1;
+    }
+    if i < count {
+        io.keep(i, to);
+        to += 1;
+    }
+    to
+}
+
+/// The stall guard's last resort: merges slots (0, 1), (2, 3), ... whatever their areas.
+fn pair_blindly<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
+    let count = io.clusters().len();
+    for to in 0..count / 2 {
+        io.merge(2 * to, 2 * to + 1, to, merger);
+    }
+    if count % 2 == 1 {
+        io.keep(count - 1, count / 2);
+    }
+    count.div_ceil(2)
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    pub(in crate::bvh) fn clusters_of(boxes: &[Aabb]) -> Clusters {
+        let cl: Vec<Cluster> = (0..boxes.len())
+            .map(|i| Cluster::leaf(&boxes[i], i as u32))
+            .collect();
+        let cost = cl.iter().map(Cluster::half_area).collect();
+        Clusters { cl, cost }
+    }
+
+    const RULE: Collapse = Collapse {
+        max_leaf: 1,
+        by_sah: false,
+        traversal: 1.0,
+        intersection: 1.0,
+    };
+
+    /// Boxes on a coarse grid of sizes, so that equal union areas are frequent.
+    pub(in crate::bvh) fn coarse_boxes(n: usize, seed: u32) -> Vec<Aabb> {
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 28) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let p = Vec3A::new(next(), next(), next());
+                Aabb::new(p, p + Vec3A::new(next(), 1.0, 2.0))
+            })
+            .collect()
+    }
+
+    /// The general search at radius 1 and the one-scan radius-1 pass merge the same pairs,
+    /// ties included.
+    #[test]
+    fn radius_one_scan_agrees_with_the_search() {
+        for n in [2, 3, 4, 5, 50, 1_000] {
+            let mut a = clusters_of(&coarse_boxes(n, 7));
+            let mut b = clusters_of(&coarse_boxes(n, 7));
+            let (mut ma, mut mb) = (Vec::new(), Vec::new());
+            let mut merger = Merger {
+                merges: &mut ma,
+                first_merge_id: n as u32,
+                rule: RULE,
+            };
+            let left_a = pass_radius_one(&mut InPlace(&mut a), &mut merger);
+            let mut search = Search::new(n);
+            search.find(&b.cl, 1);
+            let mut merger = Merger {
+                merges: &mut mb,
+                first_merge_id: n as u32,
+                rule: RULE,
+            };
+            let left_b = search.merge_mutual(&mut InPlace(&mut b), &mut merger);
+            let nodes =
+                |c: &Clusters, k: usize| c.cl[..k].iter().map(|c| c.node).collect::<Vec<_>>();
+            assert_eq!(nodes(&a, left_a), nodes(&b, left_b), "n {n}");
+            assert!(left_a < n, "n {n}: no merge");
+        }
+    }
+
+    #[test]
+    fn identical_boxes_halve_every_iteration() {
+        let boxes = vec![Aabb::from_point(Vec3A::ONE); 1024];
+        for radius in [1, 2, 5] {
+            let order: Vec<u32> = (0..1024).collect();
+            let (merges, leaves, _) = cluster(&boxes, &order, radius, &RULE);
+            assert_eq!(merges.len(), 1023);
+            let config = BuildConfig::default();
+            let (nodes, primitive_indices) =
+                layout_tree(&leaves, &order, &merges, 2046, None, &config);
+            let bvh = crate::Bvh {
+                nodes,
+                primitive_indices,
+            };
+            let s = crate::bvh::stats::tree_stats(&bvh, &Default::default());
+            assert_eq!(s.max_depth, 10, "radius {radius}");
+        }
+    }
+}

@@ -1,0 +1,211 @@
+//! The tree PLOC builds, as merge records: the stopping rules that collapse it into leaves, and
+//! its layout into the builder's node array.
+
+use super::build::{BuildPrim, build_subtree};
+use super::config::{BuildConfig, SplitStrategy};
+use super::node::BvhNode;
+use super::ploc::Cluster;
+use crate::Aabb;
+use glam::Vec3A;
+
+/// One merge: the box of the new subtree and its two children (node ids: below `n` a sorted
+/// primitive, from `n` on the merge `id - n`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Merge {
+    pub lo: [f32; 3],
+    pub left: u32,
+    pub hi: [f32; 3],
+    /// The right child; the top bit marks a subtree collapsed into one leaf.
+    pub right: u32,
+}
+
+/// The top bit of [`Merge::right`]: the merge's subtree is laid out as one leaf. Node ids stay
+/// below it (PLOC builds top-down past a billion primitives).
+pub(super) const COLLAPSED: u32 = 1 << 31;
+
+/// The stopping rules, as the merges apply them.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Collapse {
+    pub max_leaf: u32,
+    pub by_sah: bool,
+    pub traversal: f32,
+    pub intersection: f32,
+}
+
+impl Collapse {
+    /// Whether a subtree of `prims` primitives, box area `area` and children costing
+    /// `cost_a` and `cost_b` is better as one leaf, and what it costs.
+    ///
+    /// The top-down builder's rule, `leaf_cost <= split_cost`, with the split's true cost:
+    /// both children are finished (and collapsed where cheaper), so the decision is the optimal
+    /// collapse of this subtree, not the top-down guess that children are leaves.
+    #[inline(always)]
+    pub fn decide(&self, prims: u32, area: f32, cost_a: f32, cost_b: f32) -> (bool, f32) {
+        let keep = self.traversal * area + cost_a + cost_b;
+        let leaf = self.intersection * prims as f32 * area;
+        let collapse = prims <= self.max_leaf && (!self.by_sah || leaf <= keep);
+        (collapse, if collapse { leaf } else { keep })
+    }
+}
+
+/// The merge indices under `root`, children before parents.
+pub(super) fn post_order(n: usize, merges: &[Merge], root: u32) -> Vec<u32> {
+    let mut out = Vec::with_capacity(merges.len());
+    let mut work = vec![(root, false)];
+    while let Some((id, children_done)) = work.pop() {
+        let Some(m) = (id as usize).checked_sub(n) else {
+            continue;
+        };
+        if children_done {
+            out.push(m as u32);
+        } else {
+            let [l, r] = [merges[m].left, merges[m].right & !COLLAPSED];
+            work.extend([(id, true), (l, false), (r, false)]);
+        }
+    }
+    out
+}
+
+/// The height each merge's subtree will have once laid out (collapsed subtrees are leaves).
+pub(super) fn subtree_heights(n: usize, merges: &[Merge], post_order: &[u32]) -> Vec<u32> {
+    let mut height = vec![0u32; merges.len()];
+    for &m in post_order {
+        let merge = &merges[m as usize];
+        if merge.right & COLLAPSED == 0 {
+            let of = |c: u32| (c as usize).checked_sub(n).map_or(0, |c| height[c]);
+            height[m as usize] = 1 + of(merge.left).max(of(merge.right));
+        }
+    }
+    height
+}
+
+/// Sets the collapse flags of a tree whose merges are in no particular order (after
+/// reinsertion), visiting them in `post_order`.
+pub(super) fn collapse(
+    leaves: &[Cluster],
+    merges: &mut [Merge],
+    post_order: &[u32],
+    rule: &Collapse,
+) {
+    let n = leaves.len();
+    let mut done = vec![(0.0f32, 0u32); merges.len()];
+    for &m in post_order {
+        let merge = &mut merges[m as usize];
+        let [l, r] = [merge.left, merge.right & !COLLAPSED];
+        let of = |c: u32| match (c as usize).checked_sub(n) {
+            None => (rule.intersection * leaves[c as usize].half_area(), 1),
+            Some(c) => done[c],
+        };
+        let ((cost_l, prims_l), (cost_r, prims_r)) = (of(l), of(r));
+        let area = Cluster {
+            lo: merge.lo,
+            hi: merge.hi,
+            ..Cluster::default()
+        }
+        .half_area();
+        let (flag, cost) = rule.decide(prims_l + prims_r, area, cost_l, cost_r);
+        merge.right = r | if flag { COLLAPSED } else { 0 };
+        done[m as usize] = (cost, prims_l + prims_r);
+    }
+}
+
+/// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
+/// together after their parent, depth-first with the left child first, so that leaves take
+/// contiguous, increasing ranges of the primitive order. Collapsed subtrees become one leaf.
+///
+/// `heights` (the laid-out height of each merge's subtree) is given when the tree may be
+/// deeper than `config.max_depth`: a subtree that would cross it is rebuilt top-down, binned
+/// SAH with the same stopping rules, from its depth (a bottom-up tree has no depth bound of
+/// its own, and cutting it into leaves at the limit could leave one leaf with most of the
+/// primitives).
+pub(super) fn layout_tree(
+    leaves: &[Cluster],
+    order: &[u32],
+    merges: &[Merge],
+    root: u32,
+    heights: Option<&[u32]>,
+    config: &BuildConfig,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    let n = order.len();
+    let mut prims = Vec::with_capacity(n);
+    if n == 0 {
+        return (Vec::new(), prims);
+    }
+    let mut nodes = Vec::with_capacity(2 * n - 1);
+    nodes.push(BvhNode::default());
+    let mut work = vec![(0usize, root, 0u32)];
+    let mut gather = Vec::new();
+    let mut subtree = Vec::new();
+    while let Some((slot, id, depth)) = work.pop() {
+        let Some(m) = (id as usize).checked_sub(n).map(|m| &merges[m]) else {
+            let leaf = &leaves[id as usize];
+            nodes[slot] = BvhNode {
+                min: leaf.lo,
+                first: prims.len() as u32,
+                max: leaf.hi,
+                count: 1,
+            };
+            prims.push(order[id as usize]);
+            continue;
+        };
+        let collapsed = m.right & COLLAPSED != 0;
+        let too_deep = heights.is_some_and(|h| depth + h[id as usize - n] > config.max_depth);
+        if collapsed || too_deep {
+            gather.push(id);
+            subtree.clear();
+            while let Some(g) = gather.pop() {
+                match (g as usize).checked_sub(n) {
+                    None => subtree.push(g),
+                    Some(m) => {
+                        gather.push(merges[m].right & !COLLAPSED);
+                        gather.push(merges[m].left);
+                    }
+                }
+            }
+        }
+        if too_deep && !collapsed {
+            let top_down = BuildConfig {
+                split: SplitStrategy::BinnedSah { bins: 16 },
+                ..*config
+            };
+            let mut build: Vec<BuildPrim> = subtree
+                .iter()
+                .map(|&s| {
+                    let c = &leaves[s as usize];
+                    let b = Aabb::new(Vec3A::from_array(c.lo), Vec3A::from_array(c.hi));
+                    BuildPrim::new(b, order[s as usize])
+                })
+                .collect();
+            let sub = build_subtree(&mut build, &top_down, prims.len(), depth);
+            prims.extend(build.iter().map(|p| p.index));
+            // `sub` has its root at 0 and the rest after it; the root takes `slot`.
+            let base = nodes.len() as u32;
+            let place = |mut node: BvhNode| {
+                if !node.is_leaf() {
+                    node.first += base - 1;
+                }
+                node
+            };
+            nodes[slot] = place(sub[0]);
+            nodes.extend(sub[1..].iter().map(|&node| place(node)));
+            continue;
+        }
+        let next_free = nodes.len();
+        let node = &mut nodes[slot];
+        node.min = m.lo;
+        node.max = m.hi;
+        if collapsed {
+            node.first = prims.len() as u32;
+            node.count = subtree.len() as u32;
+            prims.extend(subtree.iter().map(|&s| order[s as usize]));
+        } else {
+            node.first = next_free as u32;
+            node.count = 0;
+            nodes.push(BvhNode::default());
+            nodes.push(BvhNode::default());
+            work.push((next_free + 1, m.right, depth + 1));
+            work.push((next_free, m.left, depth + 1));
+        }
+    }
+    (nodes, prims)
+}

@@ -1,0 +1,264 @@
+//! Reinsertion: the tree optimisation of Bittner, Hapala & Havran 2013 ("Fast Insertion-Based
+//! Optimization of Bounding Volume Hierarchies"), in the form of Meister & Bittner 2018
+//! ("Parallel Reinsertion for Bounding Volume Hierarchy Optimization"), run on one thread.
+//!
+//! A node is taken out of the tree (its parent disappears, its sibling takes the parent's
+//! place) and put back as the sibling of whichever node makes the sum of interior node areas,
+//! the SAH's traversal term, smallest. A branch-and-bound search finds that place. The nodes
+//! with the largest boxes are the ones worth moving: a big primitive that the Morton order put
+//! among small ones inflates every box on its way to the root, and reinsertion lifts it to where
+//! its size belongs.
+//!
+//! It works on PLOC's merge records, before the tree is collapsed into leaves and laid out.
+
+use super::morton::radix_sort;
+use super::ploc::{Cluster, fmax, fmin};
+use super::ploc_tree::{COLLAPSED, Merge};
+
+/// No node (the root's parent).
+const NONE: u32 = u32::MAX;
+
+/// A box, as the merge records and clusters store it.
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    lo: [f32; 3],
+    hi: [f32; 3],
+}
+
+impl Bounds {
+    #[inline(always)]
+    fn union(&self, o: &Self) -> Self {
+        Self {
+            lo: [0, 1, 2].map(|i| fmin(self.lo[i], o.lo[i])),
+            hi: [0, 1, 2].map(|i| fmax(self.hi[i], o.hi[i])),
+        }
+    }
+
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let (lo, hi) = (self.lo, self.hi);
+        let (dx, dy, dz) = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+        dx * dy + dy * dz + dz * dx
+    }
+}
+
+/// The tree PLOC built, in place: node ids below `leaves.len()` are primitives (in curve
+/// order), the others merges. Parents are kept for the search's walk to the root.
+pub(super) struct Tree<'a> {
+    leaves: &'a [Cluster],
+    merges: &'a mut [Merge],
+    parent: Vec<u32>,
+    /// Half the surface area of every node's box, kept up to date by the refits: choosing
+    /// candidates reads all of them every round.
+    area: Vec<f32>,
+    root: u32,
+    stack: Vec<(f32, u32)>,
+}
+
+impl<'a> Tree<'a> {
+    /// The tree of `merges` over `leaves` (at least two leaves; the last merge is the root).
+    pub fn new(leaves: &'a [Cluster], merges: &'a mut [Merge]) -> Self {
+        let n = leaves.len();
+        let mut parent = vec![NONE; n + merges.len()];
+        for (m, merge) in merges.iter().enumerate() {
+            parent[merge.left as usize] = (n + m) as u32;
+            parent[(merge.right & !COLLAPSED) as usize] = (n + m) as u32;
+        }
+        let area = leaves
+            .iter()
+            .map(Cluster::half_area)
+            .chain(
+                merges
+                    .iter()
+                    .map(|m| Bounds { lo: m.lo, hi: m.hi }.half_area()),
+            )
+            .collect();
+        Self {
+            leaves,
+            root: (n + merges.len() - 1) as u32,
+            merges,
+            parent,
+            area,
+            stack: Vec::new(),
+        }
+    }
+
+    #[inline(always)]
+    fn bounds(&self, id: u32) -> Bounds {
+        match (id as usize).checked_sub(self.leaves.len()) {
+            None => {
+                let c = &self.leaves[id as usize];
+                Bounds { lo: c.lo, hi: c.hi }
+            }
+            Some(m) => {
+                let m = &self.merges[m];
+                Bounds { lo: m.lo, hi: m.hi }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn children(&self, id: u32) -> Option<[u32; 2]> {
+        let m = self
+            .merges
+            .get((id as usize).checked_sub(self.leaves.len())?)?;
+        Some([m.left, m.right & !COLLAPSED])
+    }
+
+    #[inline(always)]
+    fn sibling(&self, id: u32) -> u32 {
+        let [l, r] = self.children(self.parent[id as usize]).unwrap_or([id, id]);
+        if l == id { r } else { l }
+    }
+
+    /// Runs `rounds` rounds; round `i` offers the `batch / (2 i + 1)` nodes with the largest
+    /// boxes for reinsertion, largest first (the schedule of the paper's implementation in
+    /// `madmann91/bvh`, which spends most of its effort near the top of the tree).
+    pub fn optimize(&mut self, batch: usize, rounds: u32) {
+        let mut keys = Vec::new();
+        for round in 0..rounds as usize {
+            let want = (batch / (2 * round + 1)).max(1);
+            self.largest(want, &mut keys);
+            for &key in keys.iter().rev() {
+                let node = key as u32;
+                if let Some((to, _)) = self.find(node) {
+                    self.reinsert(node, to);
+                }
+            }
+        }
+    }
+
+    /// The `want` nodes (the root aside) with the largest boxes, as `area bits << 32 | id`
+    /// keys in increasing order. A histogram of the areas' top bits finds the threshold in one
+    /// pass; only the nodes above it are sorted.
+    fn largest(&self, want: usize, keys: &mut Vec<u64>) {
+        // Positive floats order like their bits; NaN areas (0 times infinity) are never moved.
+        let key = |a: f32| -> Option<u32> { (a >= 0.0).then_some(a.to_bits()) };
+        let mut hist = vec![0u32; 1 << 12];
+        for &a in &self.area {
+            if let Some(k) = key(a) {
+                hist[(k >> 20) as usize] += 1;
+            }
+        }
+        let mut threshold = 0;
+        let mut above = 0usize;
+        for (bucket, &count) in hist.iter().enumerate().rev() {
+            above += count as usize;
+            if above >= want {
+                threshold = bucket as u32;
+                break;
+            }
+        }
+        keys.clear();
+        for (id, &a) in self.area.iter().enumerate() {
+            if let Some(k) = key(a).filter(|k| k >> 20 >= threshold && id as u32 != self.root) {
+                keys.push((u64::from(k) << 32) | id as u64);
+            }
+        }
+        radix_sort(keys, 32..64);
+        let extra = keys.len().saturating_sub(want);
+        keys.drain(..extra);
+    }
+
+    /// The best new sibling for `node` and the area it saves, if any saves area: a
+    /// branch-and-bound search outward from the node's old place (Meister & Bittner 2018,
+    /// section 4).
+    fn find(&mut self, node: u32) -> Option<(u32, f32)> {
+        let parent = self.parent[node as usize];
+        if parent == NONE {
+            return None;
+        }
+        let nb = self.bounds(node);
+        let node_area = self.area[node as usize];
+        let mut best = (NONE, 0.0f32);
+        // Taking the node out removes its parent; every ancestor above shrinks to the union of
+        // the siblings on the way up. `gain` is what the removal saves above the subtree being
+        // searched.
+        let mut gain = self.area[parent as usize];
+        let mut sibling = self.sibling(node);
+        let mut pivot = parent;
+        let mut pivot_bounds = self.bounds(sibling);
+        let mut stack = std::mem::take(&mut self.stack);
+        loop {
+            stack.push((gain, sibling));
+            while let Some((g, x)) = stack.pop() {
+                // The new parent costs at least the node's own area.
+                if g - node_area <= best.1 {
+                    continue;
+                }
+                let xb = self.bounds(x);
+                let here = g - xb.union(&nb).half_area();
+                if here > best.1 {
+                    best = (x, here);
+                }
+                if let Some([l, r]) = self.children(x) {
+                    // Below `x`, `x` itself grows to hold the node.
+                    let below = here + self.area[x as usize];
+                    stack.push((below, l));
+                    stack.push((below, r));
+                }
+            }
+            if pivot != parent {
+                pivot_bounds = pivot_bounds.union(&self.bounds(sibling));
+                gain += self.area[pivot as usize] - pivot_bounds.half_area();
+            }
+            if pivot == self.root {
+                break;
+            }
+            sibling = self.sibling(pivot);
+            pivot = self.parent[pivot as usize];
+        }
+        self.stack = stack;
+        (best.0 != NONE && best.0 != self.sibling(node)).then_some(best)
+    }
+
+    /// Replaces child `old` of `parent` (or the root) by `new`.
+    fn replace_child(&mut self, parent: u32, old: u32, new: u32) {
+        if parent == NONE {
+            self.root = new;
+        } else {
+            let m = &mut self.merges[parent as usize - self.leaves.len()];
+            if m.left == old {
+                m.left = new;
+            } else {
+                m.right = new | (m.right & COLLAPSED);
+            }
+        }
+        self.parent[new as usize] = parent;
+    }
+
+    /// Moves `node` to be the sibling of `to`, reusing its old parent as their new parent.
+    fn reinsert(&mut self, node: u32, to: u32) {
+        let p = self.parent[node as usize];
+        let sibling = self.sibling(node);
+        let grand = self.parent[p as usize];
+        self.replace_child(grand, p, sibling);
+        let to_parent = self.parent[to as usize];
+        self.replace_child(to_parent, to, p);
+        let m = &mut self.merges[p as usize - self.leaves.len()];
+        m.left = node;
+        m.right = to | (m.right & COLLAPSED);
+        self.parent[to as usize] = p;
+        // The old place first: where the two paths to the root meet, the second refit sees
+        // both sides already right.
+        self.refit(grand);
+        self.refit(p);
+    }
+
+    /// Recomputes the boxes from `id` to the root.
+    fn refit(&mut self, mut id: u32) {
+        while id != NONE {
+            let [l, r] = self.children(id).expect("only merges are refit");
+            let b = self.bounds(l).union(&self.bounds(r));
+            let m = &mut self.merges[id as usize - self.leaves.len()];
+            (m.lo, m.hi) = (b.lo, b.hi);
+            self.area[id as usize] = b.half_area();
+            id = self.parent[id as usize];
+        }
+    }
+
+    /// The root's node id (it changes when a reinsertion moves a node next to the old root).
+    pub fn root(&self) -> u32 {
+        self.root
+    }
+}
