@@ -6,6 +6,7 @@
 //! `cargo run --release -p accel --example mesh_timing`
 
 use accel::mesh::MeshBvh;
+use accel::{BuildConfig, SplitStrategy};
 use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
@@ -60,9 +61,21 @@ fn main() {
     });
     println!("build, {n} triangles (M tris/s, including making the triangle boxes):");
     println!(
-        "  accel MeshBvh::new (binned SAH, 8-wide, packets): {:.2}",
+        "  accel MeshBvh::new (8-wide, packets; PLOC): {:.2}",
         rate(ours)
     );
+    for (name, split) in [
+        ("PLOC_FASTEST", SplitStrategy::PLOC_FASTEST),
+        ("binned SAH 16", SplitStrategy::BinnedSah { bins: 16 }),
+    ] {
+        let config = BuildConfig::with_split(split);
+        let t = best_of(3, || {
+            std::hint::black_box(
+                MeshBvh::with_config(&vertices, &indices, &config).expect("valid mesh"),
+            );
+        });
+        println!("  accel MeshBvh::with_config({name}): {:.2}", rate(t));
+    }
     let tris = obvhs_tris(&vertices, &indices);
     for (name, params) in [
         ("fastest", BvhBuildParams::fastest_build()),

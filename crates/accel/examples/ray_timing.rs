@@ -15,8 +15,8 @@
 //! preset, its Möller-Trumbore test, triangles in leaf order) on every kind; on incoherent
 //! rays also the 8-wide, quantized 8-wide and 4-wide `WideBvh` over the triangle boxes with the
 //! single watertight test in the callback. `only` keeps the contenders whose name contains it.
-//! The environment variable `MESH_CONFIGS` (`leaf:traversal:intersection,...`) adds
-//! `MeshBvh`s built with other SAH settings.
+//! The environment variable `MESH_CONFIGS` (comma-separated `leaf:traversal:intersection`
+//! SAH settings, or `ploc` / `ploc-fastest`) adds `MeshBvh`s built other ways.
 //!
 //! The machine is shared: each round runs every contender once, and the summary is the median
 //! over rounds of each contender's ratio to obvhs *in the same round*.
@@ -27,7 +27,8 @@ mod common;
 use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
 use accel::mesh::MeshBvh;
 use accel::{
-    Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, Triangle, WatertightRay,
+    Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, SplitStrategy, Triangle,
+    WatertightRay,
 };
 use glam::Vec3A;
 use obvhs::BvhBuildParams;
@@ -197,14 +198,20 @@ fn main() {
         .unwrap_or_default()
         .split_terminator(',')
     {
-        let p: Vec<f32> = c.split(':').map(|x| x.parse().expect("a number")).collect();
-        let config = BuildConfig {
-            max_leaf_size: p[0] as u32,
-            sah: SahCosts {
-                traversal: p[1],
-                intersection: p[2],
-            },
-            ..BuildConfig::default()
+        let config = match c {
+            "ploc" => BuildConfig::with_split(SplitStrategy::PLOC),
+            "ploc-fastest" => BuildConfig::with_split(SplitStrategy::PLOC_FASTEST),
+            _ => {
+                let p: Vec<f32> = c.split(':').map(|x| x.parse().expect("a number")).collect();
+                BuildConfig {
+                    max_leaf_size: p[0] as u32,
+                    sah: SahCosts {
+                        traversal: p[1],
+                        intersection: p[2],
+                    },
+                    ..BuildConfig::default()
+                }
+            }
         };
         let mesh = MeshBvh::with_config(&vertices, &indices, &config).expect("a triangle list");
         contenders.push((format!("MeshBvh({c})"), mesh_tracer(mesh), false));

