@@ -3,7 +3,7 @@
 mod scenes;
 
 use accel::mesh::{Instance, InstancedScene, MeshBvh};
-use accel::{Aabb, Backfaces, Ray, WatertightRay};
+use accel::{Aabb, Backfaces, BuildConfig, Ray, SplitStrategy, WatertightRay};
 use glam::{Affine3A, Quat, Vec3, Vec3A};
 use scenes::Rng;
 use std::sync::Arc;
@@ -76,11 +76,21 @@ fn random_ray(rng: &mut Rng, extent: f32) -> Ray {
 #[test]
 fn mesh_bvh_matches_brute_force() {
     let mut rng = Rng::new(31);
-    for (mi, mesh) in [soup(&mut rng, 2000), sphere(24, 32), soup(&mut rng, 3)]
-        .iter()
-        .enumerate()
-    {
-        let bvh = MeshBvh::new(&mesh.vertices, &mesh.indices).unwrap();
+    let meshes = [soup(&mut rng, 2000), sphere(24, 32), soup(&mut rng, 3)];
+    // `MeshBvh::new` picks binned SAH for meshes this small; PLOC (its choice for large
+    // meshes) is checked on the same meshes.
+    let builds = meshes.iter().enumerate().flat_map(|(mi, mesh)| {
+        [
+            MeshBvh::new(&mesh.vertices, &mesh.indices),
+            MeshBvh::with_config(
+                &mesh.vertices,
+                &mesh.indices,
+                &BuildConfig::with_split(SplitStrategy::PLOC),
+            ),
+        ]
+        .map(move |bvh| (mi, mesh, bvh.unwrap()))
+    });
+    for (mi, mesh, bvh) in builds {
         bvh.validate().unwrap();
         assert_eq!(bvh.triangle_count(), mesh.indices.len() / 3);
         let mut all = Vec::new();

@@ -23,33 +23,9 @@ use std::time::Instant;
 
 const N: usize = 100_000;
 
-struct Rng(u64);
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn v(&mut self, lo: f32, hi: f32) -> Vec3A {
-        Vec3A::new(
-            lo + (hi - lo) * self.f(),
-            lo + (hi - lo) * self.f(),
-            lo + (hi - lo) * self.f(),
-        )
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.f() * n as f32) as usize % n
-    }
-}
-
-fn scene(n: usize, seed: u64) -> Vec<Aabb> {
-    let mut r = Rng(seed);
-    (0..n)
-        .map(|_| Aabb::from_center_half_extents(r.v(-200.0, 200.0), r.v(0.1, 1.0)))
-        .collect()
-}
+#[path = "../../../benches/common/dynamic_workload.rs"]
+mod dynamic_workload;
+use dynamic_workload::{Rng, scene};
 
 fn parry(b: &Aabb) -> ParryAabb {
     ParryAabb::new(
