@@ -209,17 +209,21 @@ fn every_strategy_matches_brute_force_on_every_scene_kind() {
     }
 }
 
-#[test]
-fn large_scenes_match_brute_force() {
-    for (i, kind) in [
+/// Uniform, clustered and degenerate scenes of 20,000 boxes (seeds from `seed`).
+fn large_scenes(seed: u64) -> impl Iterator<Item = Vec<Aabb>> {
+    [
         SceneKind::Uniform,
         SceneKind::Clustered,
         SceneKind::Degenerate,
     ]
     .into_iter()
     .enumerate()
-    {
-        let boxes = scene(kind, 20_000, 77 + i as u64);
+    .map(move |(i, kind)| scene(kind, 20_000, seed + i as u64))
+}
+
+#[test]
+fn large_scenes_match_brute_force() {
+    for boxes in large_scenes(77) {
         check_scene(&boxes, &BuildConfig::default(), 99, 60);
     }
 }
@@ -263,21 +267,32 @@ fn a_million_identical_boxes_terminate_with_small_leaves() {
     }
 }
 
-#[test]
-fn invalid_boxes_are_left_out_and_infinite_ones_kept() {
+/// A NaN box and an empty one are left out; the whole of space, the largest finite box and a
+/// half-infinite one are kept, and a ray far from everything else hits exactly the two that
+/// reach it.
+fn check_invalid_and_infinite_boxes(cfg: &BuildConfig) {
     let mut boxes = scene(SceneKind::Uniform, 100, 3);
     boxes[5] = Aabb::new(glam::Vec3A::NAN, glam::Vec3A::ONE);
     boxes[6] = Aabb::EMPTY;
     boxes[7] = Aabb::EVERYTHING;
     boxes[8] = Aabb::new(glam::Vec3A::splat(-f32::MAX), glam::Vec3A::splat(f32::MAX));
-    let bvh = Bvh::build(&boxes, &BuildConfig::default());
+    boxes[9] = Aabb::new(
+        glam::Vec3A::new(f32::NEG_INFINITY, 0.0, 0.0),
+        glam::Vec3A::ZERO,
+    );
+    let bvh = Bvh::build(&boxes, cfg);
     bvh.validate(&boxes).unwrap();
     assert_eq!(bvh.primitive_count(), 98);
     let ray = accel::Ray::new(glam::Vec3A::splat(500.0), glam::Vec3A::X);
     let mut all = Vec::new();
     bvh.cast_ray_all(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]), &mut all);
     let ids: Vec<u32> = all.iter().map(|h| h.primitive).collect();
-    assert_eq!(ids, vec![7, 8]);
+    assert_eq!(ids, vec![7, 8], "{cfg:?}");
+}
+
+#[test]
+fn invalid_boxes_are_left_out_and_infinite_ones_kept() {
+    check_invalid_and_infinite_boxes(&BuildConfig::default());
 }
 
 /// The SAH cost (default costs) of a build of `boxes` with `split`.
@@ -373,34 +388,10 @@ fn ploc_strategies() -> impl Iterator<Item = SplitStrategy> {
 fn ploc_matches_brute_force_on_large_scenes_and_odd_input() {
     for split in ploc_strategies() {
         let cfg = BuildConfig::with_split(split);
-        for (i, kind) in [
-            SceneKind::Uniform,
-            SceneKind::Clustered,
-            SceneKind::Degenerate,
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            check_scene(&scene(kind, 20_000, 177 + i as u64), &cfg, 99, 40);
+        for boxes in large_scenes(177) {
+            check_scene(&boxes, &cfg, 99, 40);
         }
-        // Invalid boxes left out, infinite ones kept.
-        let mut boxes = scene(SceneKind::Uniform, 100, 3);
-        boxes[5] = Aabb::new(glam::Vec3A::NAN, glam::Vec3A::ONE);
-        boxes[6] = Aabb::EMPTY;
-        boxes[7] = Aabb::EVERYTHING;
-        boxes[8] = Aabb::new(glam::Vec3A::splat(-f32::MAX), glam::Vec3A::splat(f32::MAX));
-        boxes[9] = Aabb::new(
-            glam::Vec3A::new(f32::NEG_INFINITY, 0.0, 0.0),
-            glam::Vec3A::ZERO,
-        );
-        let bvh = Bvh::build(&boxes, &cfg);
-        bvh.validate(&boxes).unwrap();
-        assert_eq!(bvh.primitive_count(), 98);
-        let ray = accel::Ray::new(glam::Vec3A::splat(500.0), glam::Vec3A::X);
-        let mut all = Vec::new();
-        bvh.cast_ray_all(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]), &mut all);
-        let ids: Vec<u32> = all.iter().map(|h| h.primitive).collect();
-        assert_eq!(ids, vec![7, 8], "{split:?}");
+        check_invalid_and_infinite_boxes(&cfg);
         // Nothing valid, one, two.
         for n in 0..3 {
             let mut boxes = vec![Aabb::EMPTY; 4];
@@ -473,9 +464,7 @@ fn ploc_honours_the_stopping_rules() {
                     sah_termination,
                     ..BuildConfig::with_split(split)
                 };
-                let bvh = Bvh::build(&boxes, &cfg);
-                bvh.validate(&boxes).unwrap();
-                let s = tree_stats(&bvh, &cfg.sah);
+                let s = built_stats(&boxes, &cfg);
                 assert!(s.max_leaf_size <= max_leaf_size as usize, "{cfg:?}: {s:?}");
                 if sah_termination {
                     assert!(s.sah_cost <= singles.sah_cost, "{cfg:?}: {s:?}");
@@ -493,12 +482,17 @@ fn ploc_honours_the_stopping_rules() {
                 max_depth,
                 ..BuildConfig::with_split(split)
             };
-            let bvh = Bvh::build(&boxes, &cfg);
-            bvh.validate(&boxes).unwrap();
-            let s = tree_stats(&bvh, &cfg.sah);
+            let s = built_stats(&boxes, &cfg);
             assert!(s.max_depth <= max_depth as usize, "{cfg:?}: {s:?}");
         }
     }
+}
+
+/// Builds, validates and measures a tree.
+fn built_stats(boxes: &[Aabb], cfg: &BuildConfig) -> accel::bvh::stats::TreeStats {
+    let bvh = Bvh::build(boxes, cfg);
+    bvh.validate(boxes).unwrap();
+    tree_stats(&bvh, &cfg.sah)
 }
 
 /// PLOC trees cost about what binned SAH trees cost (the paper reports parity with SAH
