@@ -222,6 +222,9 @@ pub struct DynamicBvh {
     config: DynamicBvhConfig,
     /// Leaves whose fat box changed since the last refit.
     dirty: Vec<u32>,
+    /// How many of them were flagged `FLAG_JUMPED` (counted as they are flagged, so
+    /// the refit decides on reinsertion without a pass over the dirty list).
+    jumped_pending: usize,
     /// Reused by the refit pass: queued internal nodes, then the same sorted by height.
     refit_buckets: Vec<Vec<u32>>,
     refit_sorted: Vec<u32>,
@@ -249,6 +252,7 @@ impl Clone for DynamicBvh {
             leaf_count: self.leaf_count,
             config: self.config,
             dirty: self.dirty.clone(),
+            jumped_pending: self.jumped_pending,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
             internal_area: self.internal_area,
@@ -274,6 +278,7 @@ impl DynamicBvh {
             leaf_count: 0,
             config,
             dirty: Vec::new(),
+            jumped_pending: 0,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
             internal_area: 0.0,
@@ -330,6 +335,7 @@ impl DynamicBvh {
         self.root = NULL;
         self.leaf_count = 0;
         self.dirty.clear();
+        self.jumped_pending = 0;
         self.internal_area = 0.0;
         self.leaf_area = 0.0;
     }
@@ -397,8 +403,9 @@ impl DynamicBvh {
         let jumped = !fat.intersects_aabb(&new_fat);
         self.set_aabb(leaf, new_fat);
         let n = &mut self.arena.nodes[leaf as usize];
-        if jumped {
+        if jumped && n.flags & FLAG_JUMPED == 0 {
             n.flags |= FLAG_JUMPED;
+            self.jumped_pending += 1;
         }
         if n.flags & FLAG_DIRTY == 0 {
             n.flags |= FLAG_DIRTY;
