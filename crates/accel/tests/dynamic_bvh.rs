@@ -348,6 +348,58 @@ fn a_crowd_jumping_at_once_is_refit_not_reinserted_and_stays_exact() {
 }
 
 #[test]
+fn mass_motion_frames_take_the_whole_tree_refit_and_stay_exact() {
+    // Over a quarter of the leaves move each frame (the whole-tree refit), mixed with
+    // removals, insertions and a few teleports, across frames.
+    let mut rng = Rng::new(11);
+    let extent = 80.0;
+    let mut t = DynamicBvh::new();
+    let mut model: HashMap<u32, Aabb> = HashMap::new();
+    let mut handles: HashMap<u32, LeafHandle> = HashMap::new();
+    let mut next = 0u32;
+    for _ in 0..3000 {
+        let b = random_box(&mut rng, extent);
+        handles.insert(next, t.insert(next, b).unwrap());
+        model.insert(next, b);
+        next += 1;
+    }
+    t.maintain();
+    for frame in 0..20 {
+        let ids: Vec<u32> = model.keys().copied().collect();
+        for &id in &ids {
+            if rng.below(10) < 4 {
+                let old = model[&id];
+                let b = if rng.below(50) == 0 {
+                    random_box(&mut rng, extent)
+                } else {
+                    let d = rng.vec3(-2.0, 2.0);
+                    Aabb::new(old.min + d, old.max + d)
+                };
+                t.update(handles[&id], b).unwrap();
+                model.insert(id, b);
+            }
+        }
+        for _ in 0..50 {
+            let id = ids[rng.below(ids.len() as u32) as usize];
+            if let Some(h) = handles.remove(&id) {
+                assert_eq!(t.remove(h), Ok(id));
+                model.remove(&id);
+            }
+            let b = random_box(&mut rng, extent);
+            handles.insert(next, t.insert(next, b).unwrap());
+            model.insert(next, b);
+            next += 1;
+        }
+        let report = t.maintain();
+        assert!(report.refit_nodes > 0, "frame {frame}: nothing refit");
+        t.validate()
+            .unwrap_or_else(|e| panic!("frame {frame}: {e}"));
+        check_ids(&t, &model, &handles);
+        check_queries(&t, &model, &mut rng, extent, 8);
+    }
+}
+
+#[test]
 fn small_motion_stays_in_the_fat_box_and_large_motion_does_not() {
     let mut t = DynamicBvh::new();
     let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);

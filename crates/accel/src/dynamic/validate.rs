@@ -2,7 +2,7 @@
 //! list and the bookkeeping the quality monitor relies on.
 
 use super::DynamicBvh;
-use super::node::{FLAG_PLACED, FLAG_QUEUED, NULL};
+use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_PLACED, FLAG_QUEUED, NULL};
 use crate::Aabb;
 use crate::bvh::validate::{ValidationError, validate_tree};
 use crate::query::BoundingTree;
@@ -122,7 +122,8 @@ impl DynamicBvh {
                 if n.is_free() {
                     return Err(DynamicValidationError::FreeList(i));
                 }
-                if n.flags & (FLAG_QUEUED | FLAG_PLACED) != 0 {
+                // No update is pending here (checked above), so no leaf may still be marked.
+                if n.flags & (FLAG_QUEUED | FLAG_PLACED | FLAG_DIRTY | FLAG_JUMPED) != 0 {
                     return Err(DynamicValidationError::StaleFlag(i));
                 }
                 if n.is_internal() {
