@@ -218,8 +218,10 @@ fn soak(s: Soak) {
         check_ids(&tree, &model, &handles);
     }
     println!(
-        "soak: max population {max_seen}, rebuilds {rebuilds_seen}, final quality {:?}",
-        tree.quality()
+        "soak: max population {max_seen}, rebuilds {rebuilds_seen}, final quality {:?}, \
+         measured fresh build {}",
+        tree.quality(),
+        tree.measure_fresh_build_cost()
     );
     assert!(
         max_seen >= s.max_handles * 9 / 10,
@@ -397,6 +399,52 @@ fn mass_motion_frames_take_the_whole_tree_refit_and_stay_exact() {
         check_ids(&t, &model, &handles);
         check_queries(&t, &model, &mut rng, extent, 8);
     }
+}
+
+#[test]
+fn quality_estimate_tracks_a_fresh_build_as_the_scene_changes() {
+    // Motion that fattens leaves along their path, a world that spreads out, and a population
+    // that grows and shrinks: the sampled estimate must stay near the measured fresh cost.
+    let mut rng = Rng::new(5);
+    let mut t = DynamicBvh::new();
+    let mut boxes: Vec<(LeafHandle, Aabb)> = Vec::new();
+    for i in 0..20_000u32 {
+        let b = random_box(&mut rng, 200.0);
+        boxes.push((t.insert(i, b).unwrap(), b));
+    }
+    t.maintain();
+    let mut worst: f32 = 1.0;
+    for frame in 1..=600u32 {
+        let spread = 1.0 + frame as f32 / 600.0;
+        for _ in 0..2_000 {
+            let k = rng.below(boxes.len() as u32) as usize;
+            let (h, old) = boxes[k];
+            let d = rng.vec3(-2.0, 2.0) + old.center() * (spread.powf(1.0 / 600.0) - 1.0);
+            let b = Aabb::new(old.min + d, old.max + d);
+            t.update(h, b).unwrap();
+            boxes[k].1 = b;
+        }
+        if frame > 300 {
+            for _ in 0..20 {
+                let k = rng.below(boxes.len() as u32) as usize;
+                let (h, _) = boxes.swap_remove(k);
+                t.remove(h).unwrap();
+            }
+        }
+        t.maintain();
+        if frame % 100 == 0 {
+            let q = t.quality();
+            let measured = t.measure_fresh_build_cost();
+            let off = q.fresh_estimate.expect("calibrated") / measured;
+            println!(
+                "frame {frame}: leaves {}, estimate {:?}, measured fresh {measured}, off {off}",
+                boxes.len(),
+                q
+            );
+            worst = worst.max(off).max(1.0 / off);
+        }
+    }
+    assert!(worst < 1.15, "estimate off by {worst}x");
 }
 
 #[test]

@@ -370,6 +370,7 @@ impl DynamicBvh {
         self.attach(leaf);
         self.leaf_count += 1;
         self.optimizer.note_change();
+        self.quality.note_edit();
         Ok(LeafHandle {
             index: leaf,
             generation: self.arena.nodes[leaf as usize].generation,
@@ -423,6 +424,7 @@ impl DynamicBvh {
         self.free_node(leaf);
         self.leaf_count -= 1;
         self.optimizer.note_change();
+        self.quality.note_edit();
         Ok(id)
     }
 

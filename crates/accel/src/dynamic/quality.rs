@@ -2,14 +2,22 @@
 //!
 //! The SAH cost of the tree is `(ct * sum internal areas + ci * sum leaf areas) / root area`.
 //! Every box write goes through `set_aabb`, which keeps both sums current, so the cost is O(1)
-//! to read. What a fresh build *would* cost is estimated from the last one: a binned-SAH build
-//! over `n` leaves has internal area close to a fixed multiple `rho` of its leaf area (each
-//! level of a good tree covers roughly the leaves below it, with a scene-dependent overlap),
-//! so `rho` is measured at each rebuild and the estimate is `(ct * rho + ci) * leaf area /
-//! root area`. That tracks motion, growth of leaves and of the world at no cost; the tree is
-//! rebuilt when its leaf count doubled or halved since `rho` was measured, which also keeps
-//! the estimate calibrated, and [`DynamicBvh::measure_fresh_build_cost`] gives the exact
-//! figure when a test or benchmark wants it.
+//! to read. What a fresh build *would* cost is estimated from a sample: a binned-SAH build over
+//! about a thousand leaves, taken at a stride through the arena, costs a fixed fraction of a
+//! build over all `n` per sampled leaf, and that fraction is measured at each rebuild (when
+//! the tree *is* a fresh build). The sample is rebuilt every few frames that changed the
+//! tree, so the estimate follows the scene as it spreads, clusters, or as leaves grow fat.
+//!
+//! The first version scaled the last build's internal-to-leaf area ratio by the current leaf
+//! area. That is O(1), but leaf areas and internal areas do not grow together: in the 100k
+//! soak, where moving leaves are fattened along their motion, it came out 4x too high, so the
+//! tree looked four times better than a fresh build and the monitor never fired. A sampled
+//! build over-reads such inflation a little instead, which errs towards an early rebuild.
+//!
+//! The tree is also rebuilt when its leaf count doubled or halved since the last rebuild,
+//! which keeps the measured fraction calibrated, and
+//! [`DynamicBvh::measure_fresh_build_cost`] gives the exact figure when a test or benchmark
+//! wants it.
 
 use super::DynamicBvh;
 use super::node::{FLAG_PLACED, NULL};
@@ -44,10 +52,18 @@ pub struct MaintainReport {
     pub rebuild_started: bool,
 }
 
+/// About how many leaves the estimate's sample build takes.
+const SAMPLE_LEAVES: usize = 1024;
+
+/// Maintain calls between two sample builds (only calls after which the tree had changed
+/// count): a build over the sample costs a few hundred microseconds here, so it is spread out.
+const SAMPLE_PERIOD: u32 = 16;
+
 #[derive(Clone, Copy, Debug)]
 struct Calibration {
-    /// Internal area over leaf area of the last fresh build.
-    rho: f64,
+    /// Fresh build cost over (sample cost per sampled leaf times leaf count), measured when
+    /// the tree was a fresh build.
+    scale: f64,
     /// Leaves at that build.
     leaves: usize,
 }
@@ -63,6 +79,13 @@ struct Job {
 #[derive(Debug, Default)]
 pub(super) struct QualityState {
     calibration: Option<Calibration>,
+    /// The last sampled estimate of a fresh build's SAH cost.
+    fresh_estimate: Option<f32>,
+    /// Edits (insertions, removals, moves, reinsertions) since the tree was created; the
+    /// sample is rebuilt only if this moved.
+    edits: u64,
+    edits_at_sample: u64,
+    calls_since_sample: u32,
     job: Option<Job>,
     rebuilds: u64,
 }
@@ -71,9 +94,19 @@ impl QualityState {
     pub(super) fn clone_without_job(&self) -> Self {
         Self {
             calibration: self.calibration,
+            fresh_estimate: self.fresh_estimate,
+            edits: self.edits,
+            edits_at_sample: self.edits_at_sample,
+            calls_since_sample: self.calls_since_sample,
             job: None,
             rebuilds: self.rebuilds,
         }
+    }
+
+    /// Notes that the tree changed (cheap: called on every edit).
+    #[inline]
+    pub(super) fn note_edit(&mut self) {
+        self.edits = self.edits.wrapping_add(1);
     }
 }
 
@@ -90,13 +123,11 @@ pub(super) fn rebuild_config() -> BuildConfig {
 }
 
 impl DynamicBvh {
-    /// The SAH cost of the tree and the ratio to an estimated fresh build; O(1).
+    /// The SAH cost of the tree and the ratio to the estimated cost of a fresh build; O(1).
+    /// The estimate is the one [`maintain`](Self::maintain) last sampled.
     pub fn quality(&self) -> QualityEstimate {
         let sah_cost = self.sah_cost_from_sums(self.internal_area, self.leaf_area);
-        let fresh_estimate = self.quality.calibration.map(|c| {
-            let internal = c.rho * self.leaf_area;
-            self.sah_cost_from_sums(internal, self.leaf_area)
-        });
+        let fresh_estimate = self.quality.fresh_estimate;
         let ratio = match fresh_estimate {
             Some(f) if f > 0.0 => sah_cost / f,
             _ => 1.0,
@@ -106,6 +137,69 @@ impl DynamicBvh {
             fresh_estimate,
             ratio,
         }
+    }
+
+    /// SAH cost per leaf of a binned-SAH build over a strided sample of the leaves' fat boxes,
+    /// or `None` for an empty tree.
+    fn sample_cost_per_leaf(&self) -> Option<f64> {
+        let nodes = &self.arena.nodes;
+        // Slots are drawn at pseudo-random (fixed-seed, so every sample is drawn alike) until
+        // the sample holds about `SAMPLE_LEAVES` leaves. Not a stride through the arena: an
+        // insertion allocates a leaf and its parent together, so leaves and internal nodes
+        // alternate there and an even stride can land on internal nodes only. And always about
+        // the same number of leaves, whatever the population: a sample of another size would
+        // have another cost per leaf (deeper trees cost more per leaf), and the estimate would
+        // drift with the population instead of with the tree.
+        // A small tree is measured whole: drawing with replacement from it would repeat
+        // leaves, and repeats change the cost per leaf.
+        if self.leaf_count <= 2 * SAMPLE_LEAVES {
+            let boxes: Vec<Aabb> = nodes
+                .iter()
+                .filter(|n| n.is_leaf())
+                .map(|n| n.aabb)
+                .collect();
+            return self.cost_per_leaf_of(&boxes);
+        }
+        let wanted = SAMPLE_LEAVES;
+        let mut boxes: Vec<Aabb> = Vec::with_capacity(wanted);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..8 * wanted {
+            if boxes.len() == wanted {
+                break;
+            }
+            // splitmix64
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^= z >> 31;
+            let n = &nodes[(z % nodes.len() as u64) as usize];
+            if n.is_leaf() {
+                boxes.push(n.aabb);
+            }
+        }
+        self.cost_per_leaf_of(&boxes)
+    }
+
+    /// SAH cost per leaf of a binned-SAH build over `boxes` (`None` if there are none).
+    fn cost_per_leaf_of(&self, boxes: &[Aabb]) -> Option<f64> {
+        if boxes.is_empty() {
+            return None;
+        }
+        let bvh = Bvh::build(boxes, &rebuild_config());
+        let cost = tree_stats(&bvh, &self.config.sah).sah_cost;
+        Some(f64::from(cost) / boxes.len() as f64)
+    }
+
+    /// Re-measures the sample and refreshes the fresh-build estimate.
+    fn resample_estimate(&mut self) {
+        self.quality.edits_at_sample = self.quality.edits;
+        self.quality.calls_since_sample = 0;
+        self.quality.fresh_estimate = match (self.quality.calibration, self.sample_cost_per_leaf())
+        {
+            (Some(c), Some(per_leaf)) => Some((c.scale * per_leaf * self.leaf_count as f64) as f32),
+            _ => None,
+        };
     }
 
     fn sah_cost_from_sums(&self, internal: f64, leaf: f64) -> f32 {
@@ -171,6 +265,13 @@ impl DynamicBvh {
             self.config.optimize_max_reinsertions,
         );
         report.optimize = self.optimize(budget, max);
+        if self.quality.calibration.is_some() && self.quality.edits != self.quality.edits_at_sample
+        {
+            self.quality.calls_since_sample += 1;
+            if self.quality.calls_since_sample >= SAMPLE_PERIOD {
+                self.resample_estimate();
+            }
+        }
         report.quality = self.quality();
         if self.quality.job.is_none() && self.wants_rebuild(&report.quality) {
             if self.config.background_rebuild {
@@ -316,14 +417,25 @@ impl DynamicBvh {
             }
         }
         self.recompute_area_sums();
-        self.quality.calibration = Some(Calibration {
-            rho: if self.leaf_area > 0.0 {
-                self.internal_area / self.leaf_area
+        // What the build cost calibrates the sample's cost. The build's own figure, not the
+        // installed tree's: after a background build the edits made meanwhile were replayed
+        // by insertion, and that tree is no longer a fresh build.
+        let fresh = f64::from(tree_stats(bvh, &self.config.sah).sah_cost);
+        let built_leaves = bvh.primitive_indices().len();
+        self.quality.calibration = self.sample_cost_per_leaf().map(|per_leaf| Calibration {
+            scale: if per_leaf > 0.0 && built_leaves > 0 {
+                fresh / (per_leaf * built_leaves as f64)
             } else {
-                0.0
+                1.0
             },
             leaves: self.leaf_count,
         });
+        self.quality.fresh_estimate = self
+            .quality
+            .calibration
+            .map(|c| (fresh * self.leaf_count as f64 / built_leaves.max(1) as f64) as f32);
+        self.quality.edits_at_sample = self.quality.edits;
+        self.quality.calls_since_sample = 0;
         self.quality.rebuilds += 1;
         // The refit buffer names internal nodes that were just freed: the optimiser must not
         // take them for candidates.

@@ -89,6 +89,7 @@ impl DynamicBvh {
         self.refit_buckets = buckets;
         self.refit_sorted = processed;
         self.optimizer.note_refit();
+        self.quality.note_edit();
         touched
     }
 
@@ -145,6 +146,7 @@ impl DynamicBvh {
         let touched = order.len();
         self.refit_sorted = order;
         self.optimizer.note_refit();
+        self.quality.note_edit();
         touched
     }
 
