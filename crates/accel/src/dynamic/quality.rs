@@ -433,7 +433,7 @@ impl DynamicBvh {
         self.quality.fresh_estimate = self
             .quality
             .calibration
-            .map(|c| (fresh * self.leaf_count as f64 / built_leaves.max(1) as f64) as f32);
+            .map(|_| (fresh * self.leaf_count as f64 / built_leaves.max(1) as f64) as f32);
         self.quality.edits_at_sample = self.quality.edits;
         self.quality.calls_since_sample = 0;
         self.quality.rebuilds += 1;
