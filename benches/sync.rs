@@ -88,6 +88,12 @@ fn bench(c: &mut Criterion) {
             total
         })
     });
+    let dynamic = app.world().resource::<AccelTrees>().dynamic();
+    println!(
+        "after the moving frames: {} rebuilds installed, quality {:?}",
+        dynamic.rebuild_count(),
+        dynamic.quality()
+    );
     let (mut app, _) = app_with(N, true);
     g.bench_function("100k_static_idle", |b| {
         b.iter_custom(|iters| {

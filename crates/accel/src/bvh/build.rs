@@ -195,19 +195,32 @@ pub(super) fn bounds_of(prims: &[BuildPrim]) -> (Aabb, Aabb) {
 
 /// Partitions in place so that the primitives for which `left` holds come first; returns how
 /// many did.
+///
+/// Hoare's scheme: both ends scan inwards and only misplaced pairs are swapped, each
+/// primitive tested once (the first version swapped every right-side primitive met from the
+/// left end, whether or not the one it swapped with belonged on the right too). On this
+/// machine the difference in build time is inside the run-to-run noise (about 20%).
 pub(super) fn partition(
     prims: &mut [BuildPrim],
     mut left: impl FnMut(&BuildPrim) -> bool,
 ) -> usize {
     let mut i = 0;
     let mut j = prims.len();
-    while i < j {
-        if left(&prims[i]) {
+    loop {
+        while i < j && left(&prims[i]) {
             i += 1;
-        } else {
-            j -= 1;
-            prims.swap(i, j);
         }
+        while i < j && !left(&prims[j - 1]) {
+            j -= 1;
+        }
+        if i + 1 >= j {
+            // `i == j`: done. `i + 1 == j`: the one primitive between the scans failed the
+            // first test and passed the second; predicates are pure, so this cannot happen,
+            // but the bound keeps a misbehaving one from swapping out of range.
+            return i;
+        }
+        prims.swap(i, j - 1);
+        i += 1;
+        j -= 1;
     }
-    i
 }
