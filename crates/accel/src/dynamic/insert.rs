@@ -43,6 +43,18 @@ impl DynamicBvh {
             let n2 = &nodes[c2 as usize];
             let leaf1 = n1.height == 0;
             let leaf2 = n2.height == 0;
+            // The next step reads the children of `c1` or `c2`: ask for all four lines now, so
+            // the descent waits on one memory latency per level instead of two (nodes sit at
+            // random places in the arena).
+            for (n, leaf) in [(n1, leaf1), (n2, leaf2)] {
+                if !leaf {
+                    for c in n.children {
+                        if let Some(grandchild) = nodes.get(c as usize) {
+                            super::refit::prefetch(grandchild);
+                        }
+                    }
+                }
+            }
 
             let direct1 = n1.aabb.union(d).half_area();
             let mut lower1 = f32::MAX;

@@ -205,7 +205,7 @@ fn queue_node(
 
 /// Asks for a node's cache line ahead of its use (a hint; no effect off x86-64).
 #[inline(always)]
-fn prefetch(node: &super::node::Node) {
+pub(super) fn prefetch(node: &super::node::Node) {
     #[cfg(target_arch = "x86_64")]
     {
         use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
