@@ -553,6 +553,13 @@ impl BoundingTree for DynamicBvh {
     }
 
     #[inline]
+    fn prefetch_node(&self, node: u32) {
+        if let Some(n) = self.arena.nodes.get(node as usize) {
+            refit::prefetch(n);
+        }
+    }
+
+    #[inline]
     fn leaf_primitives(&self, node: u32) -> &[u32] {
         let n = &self.arena.nodes[node as usize];
         if n.height == 0 {

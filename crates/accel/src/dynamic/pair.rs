@@ -136,6 +136,14 @@ impl BoundingTree for StaticDynamicPair {
     }
 
     #[inline]
+    fn prefetch_node(&self, node: u32) {
+        // Static nodes lie in build order, children next to their parent: no hint needed.
+        if node & STATIC_TAG == 0 {
+            self.dynamic.prefetch_node(node);
+        }
+    }
+
+    #[inline]
     fn leaf_primitives(&self, node: u32) -> &[u32] {
         if node == VIRTUAL_ROOT {
             &[]

@@ -40,6 +40,17 @@ where
                 Some([a, b]) => {
                     let ta = ray.intersect_aabb(&tree.node_bounds(a));
                     let tb = ray.intersect_aabb(&tree.node_bounds(b));
+                    // The children of each child the ray enters are read next (the nearer's
+                    // at once, the farther's when popped): ask for them now, so in a scattered
+                    // tree the misses overlap instead of queueing one level at a time.
+                    for (child, t) in [(a, ta), (b, tb)] {
+                        if t.is_some()
+                            && let Some([x, y]) = tree.node_children(child)
+                        {
+                            tree.prefetch_node(x);
+                            tree.prefetch_node(y);
+                        }
+                    }
                     node = match (ta, tb) {
                         (Some(ta), Some(tb)) => {
                             let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
@@ -80,6 +91,9 @@ where
         }
         match tree.node_children(node) {
             Some([a, b]) => {
+                // Both are read soon: overlap their misses in a scattered tree.
+                tree.prefetch_node(b);
+                tree.prefetch_node(a);
                 stack.push(b);
                 stack.push(a);
             }
@@ -150,6 +164,8 @@ where
             }
             Containment::Intersecting => match tree.node_children(node) {
                 Some([a, b]) => {
+                    tree.prefetch_node(b);
+                    tree.prefetch_node(a);
                     stack.push(b);
                     stack.push(a);
                 }
@@ -270,6 +286,9 @@ impl<T: BoundingTree + ?Sized> BoundingTree for Subtree<'_, T> {
     }
     fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
         self.tree.subtree_primitives(node)
+    }
+    fn prefetch_node(&self, node: u32) {
+        self.tree.prefetch_node(node)
     }
 }
 

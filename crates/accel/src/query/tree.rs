@@ -26,4 +26,9 @@ pub trait BoundingTree {
     fn subtree_primitives(&self, _node: u32) -> Option<&[u32]> {
         None
     }
+
+    /// Hints that `node` will be read soon: a cache prefetch, for trees whose nodes lie at
+    /// scattered places in memory (the dynamic tree's arena). The default does nothing.
+    #[inline]
+    fn prefetch_node(&self, _node: u32) {}
 }
