@@ -381,6 +381,7 @@ impl DynamicBvh {
         let nodes = bvh.nodes();
         let prims = bvh.primitive_indices();
         let mut map = vec![NULL; nodes.len()];
+        let mut placed = 0usize;
         // Children follow their parent in the flat array, so a reverse sweep is bottom-up.
         for i in (0..nodes.len()).rev() {
             let n = nodes[i];
@@ -391,6 +392,7 @@ impl DynamicBvh {
                     let ln = &mut self.arena.nodes[leaf as usize];
                     if ln.is_leaf() && ln.generation == generation {
                         ln.flags |= FLAG_PLACED;
+                        placed += 1;
                         m = self.join(m, leaf);
                     }
                 }
@@ -405,6 +407,11 @@ impl DynamicBvh {
             self.root = r;
             self.arena.nodes[r as usize].parent = NULL;
         }
+        // The tree is now the fresh build, over the leaves' current boxes, before the leaves
+        // inserted since the snapshot are added by insertion: its cost (O(1) from the area
+        // sums the joins kept) calibrates the sample's. The leaf sum still counts those
+        // leaves; they are few.
+        let fresh = f64::from(self.sah_cost_from_sums(self.internal_area, self.leaf_area));
         for i in 0..len as u32 {
             let n = &mut self.arena.nodes[i as usize];
             if n.is_leaf() {
@@ -417,11 +424,7 @@ impl DynamicBvh {
             }
         }
         self.recompute_area_sums();
-        // What the build cost calibrates the sample's cost. The build's own figure, not the
-        // installed tree's: after a background build the edits made meanwhile were replayed
-        // by insertion, and that tree is no longer a fresh build.
-        let fresh = f64::from(tree_stats(bvh, &self.config.sah).sah_cost);
-        let built_leaves = bvh.primitive_indices().len();
+        let built_leaves = placed;
         self.quality.calibration = self.sample_cost_per_leaf().map(|per_leaf| Calibration {
             scale: if per_leaf > 0.0 && built_leaves > 0 {
                 fresh / (per_leaf * built_leaves as f64)
