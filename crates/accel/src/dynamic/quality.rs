@@ -70,7 +70,8 @@ struct Calibration {
 
 #[derive(Debug)]
 struct Job {
-    handle: JoinHandle<Bvh>,
+    /// The build and its SAH cost (measured on the build thread, over the snapshot's boxes).
+    handle: JoinHandle<(Bvh, f32)>,
     /// The leaves the background build was given: (arena index, generation), in input order.
     snapshot: Vec<(u32, u32)>,
 }
@@ -304,7 +305,7 @@ impl DynamicBvh {
         self.refit();
         let (snapshot, boxes) = self.snapshot();
         let bvh = Bvh::build(&boxes, &rebuild_config());
-        self.install(&bvh, &snapshot);
+        self.install(&bvh, &snapshot, None);
     }
 
     /// Starts a rebuild on another thread over a snapshot of the fat boxes; a later
@@ -317,9 +318,14 @@ impl DynamicBvh {
         }
         self.refit();
         let (snapshot, boxes) = self.snapshot();
+        let costs = self.config.sah;
         let spawned = std::thread::Builder::new()
             .name("accel-dynamic-bvh-rebuild".into())
-            .spawn(move || Bvh::build(&boxes, &rebuild_config()));
+            .spawn(move || {
+                let bvh = Bvh::build(&boxes, &rebuild_config());
+                let cost = tree_stats(&bvh, &costs).sah_cost;
+                (bvh, cost)
+            });
         match spawned {
             Ok(handle) => self.quality.job = Some(Job { handle, snapshot }),
             // No thread to be had: the rebuild still has to happen.
@@ -334,9 +340,9 @@ impl DynamicBvh {
             return false;
         };
         match job.handle.join() {
-            Ok(bvh) => {
+            Ok((bvh, cost)) => {
                 self.refit();
-                self.install(&bvh, &job.snapshot);
+                self.install(&bvh, &job.snapshot, Some(cost));
                 true
             }
             Err(_) => false,
@@ -369,7 +375,10 @@ impl DynamicBvh {
     /// moved on) are dropped and their parents collapsed, leaves that moved get boxes from
     /// their current fat bounds (boxes are recomputed bottom-up here, not copied from the
     /// build), and leaves inserted since are inserted afterwards by the usual SAH insertion.
-    fn install(&mut self, bvh: &Bvh, snapshot: &[(u32, u32)]) {
+    ///
+    /// `build_cost` is the build's SAH cost when it was measured elsewhere (a background
+    /// build, whose boxes may have moved since); otherwise the installed tree's is used.
+    fn install(&mut self, bvh: &Bvh, snapshot: &[(u32, u32)], build_cost: Option<f32>) {
         debug_assert!(self.dirty.is_empty());
         let len = self.arena.nodes.len();
         for i in 0..len as u32 {
@@ -381,7 +390,7 @@ impl DynamicBvh {
         let nodes = bvh.nodes();
         let prims = bvh.primitive_indices();
         let mut map = vec![NULL; nodes.len()];
-        let mut placed = 0usize;
+        let (mut placed, mut placed_area) = (0usize, 0.0f64);
         // Children follow their parent in the flat array, so a reverse sweep is bottom-up.
         for i in (0..nodes.len()).rev() {
             let n = nodes[i];
@@ -393,6 +402,7 @@ impl DynamicBvh {
                     if ln.is_leaf() && ln.generation == generation {
                         ln.flags |= FLAG_PLACED;
                         placed += 1;
+                        placed_area += f64::from(ln.aabb.half_area());
                         m = self.join(m, leaf);
                     }
                 }
@@ -407,11 +417,18 @@ impl DynamicBvh {
             self.root = r;
             self.arena.nodes[r as usize].parent = NULL;
         }
-        // The tree is now the fresh build, over the leaves' current boxes, before the leaves
-        // inserted since the snapshot are added by insertion: its cost (O(1) from the area
-        // sums the joins kept) calibrates the sample's. The leaf sum still counts those
-        // leaves; they are few.
-        let fresh = f64::from(self.sah_cost_from_sums(self.internal_area, self.leaf_area));
+        // What a fresh build costs calibrates the sample's cost. After a synchronous rebuild
+        // the tree now *is* that build, over the current boxes: its cost is O(1) from the
+        // internal-area sum the joins kept and the placed leaves' areas. A background build
+        // was made over boxes that may have moved since (moved leaves stretch the installed
+        // structure), so its own cost, measured on its thread, is used instead.
+        let (fresh, built_leaves) = match build_cost {
+            Some(cost) => (f64::from(cost), bvh.primitive_indices().len()),
+            None => (
+                f64::from(self.sah_cost_from_sums(self.internal_area, placed_area)),
+                placed,
+            ),
+        };
         for i in 0..len as u32 {
             let n = &mut self.arena.nodes[i as usize];
             if n.is_leaf() {
@@ -424,7 +441,6 @@ impl DynamicBvh {
             }
         }
         self.recompute_area_sums();
-        let built_leaves = placed;
         self.quality.calibration = self.sample_cost_per_leaf().map(|per_leaf| Calibration {
             scale: if per_leaf > 0.0 && built_leaves > 0 {
                 fresh / (per_leaf * built_leaves as f64)
