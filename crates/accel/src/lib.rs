@@ -22,6 +22,7 @@ pub mod bvh;
 pub mod dynamic;
 pub mod geometry;
 pub mod mesh;
+mod prefetch;
 pub mod query;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};

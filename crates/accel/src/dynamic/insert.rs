@@ -50,7 +50,7 @@ impl DynamicBvh {
                 if !leaf {
                     for c in n.children {
                         if let Some(grandchild) = nodes.get(c as usize) {
-                            super::refit::prefetch(grandchild);
+                            crate::prefetch::prefetch_node(grandchild);
                         }
                     }
                 }

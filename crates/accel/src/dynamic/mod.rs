@@ -555,7 +555,7 @@ impl BoundingTree for DynamicBvh {
     #[inline]
     fn prefetch_node(&self, node: u32) {
         if let Some(n) = self.arena.nodes.get(node as usize) {
-            refit::prefetch(n);
+            crate::prefetch::prefetch_node(n);
         }
     }
 

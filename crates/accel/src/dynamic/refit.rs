@@ -2,6 +2,7 @@
 
 use super::DynamicBvh;
 use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL};
+use crate::prefetch::prefetch_node;
 
 impl DynamicBvh {
     /// Brings every ancestor of the leaves updated since the last call up to date, and
@@ -128,8 +129,8 @@ impl DynamicBvh {
                 stack.push((i, true));
                 stack.push((b, false));
                 stack.push((a, false));
-                prefetch(&nodes[b as usize]);
-                prefetch(&nodes[a as usize]);
+                prefetch_node(&nodes[b as usize]);
+                prefetch_node(&nodes[a as usize]);
             } else {
                 let (bb, hb) = values.pop().unwrap_or((crate::Aabb::EMPTY, 0));
                 let (ba, ha) = values.pop().unwrap_or((crate::Aabb::EMPTY, 0));
@@ -201,17 +202,4 @@ fn queue_node(
         buckets.resize_with(h + 1, Vec::new);
     }
     buckets[h].push(node);
-}
-
-/// Asks for a node's cache line ahead of its use (a hint; no effect off x86-64).
-#[inline(always)]
-pub(super) fn prefetch(node: &super::node::Node) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: prefetching is a hint that never faults; the address is that of `node`.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((node as *const super::node::Node).cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = node;
 }

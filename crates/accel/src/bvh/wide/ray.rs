@@ -2,6 +2,7 @@
 //! SIMD register.
 
 use super::{WideBvh, WideLayout, WideNode};
+use crate::prefetch::prefetch_node;
 use crate::query::TraversalStack;
 use crate::{Ray, SLAB_WIDENING};
 use core::ops::ControlFlow;
@@ -135,24 +136,6 @@ pub(super) fn slab_test_lanes<const N: usize>(
         entry_t[chunk * 4..chunk * 4 + 4].copy_from_slice(&t);
     }
     (mask, entry_t)
-}
-
-/// Asks for a node's cache lines ahead of its visit. A pushed sibling is usually visited
-/// soon, and an incoherent ray's traversal is bound by node fetches from memory: starting
-/// them early overlaps their latency with the current subtree's work.
-#[inline(always)]
-fn prefetch_node<T>(node: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = (node as *const T).cast::<i8>();
-        for line in (0..core::mem::size_of::<T>()).step_by(64) {
-            // SAFETY: prefetching is a hint that never faults; the address is inside `node`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(line)) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = node;
 }
 
 /// Bit i set when `count[i]` is not zero, i.e. slot i is a leaf (written so the compiler can
