@@ -30,8 +30,10 @@ pub struct AccelStats {
     pub dynamic_depth: usize,
     /// Estimated SAH cost of the dynamic tree relative to a fresh build (1.0 = as good).
     pub sah_ratio: f32,
-    /// The dynamic tree's last maintenance report, for debugging.
-    pub last_maintain: Option<String>,
+    /// The dynamic tree's last maintenance report (refit size, optimiser work, quality,
+    /// rebuilds), for debugging. Kept as the report itself, not text: formatting it every
+    /// frame would put an allocation in the sync path.
+    pub last_maintain: Option<accel::dynamic::MaintainReport>,
 }
 
 impl AccelStats {

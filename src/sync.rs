@@ -258,5 +258,5 @@ pub(crate) fn maintain_trees(
     let start = Instant::now();
     let report = trees.dynamic_mut().maintain();
     stats.maintain_time = start.elapsed();
-    stats.last_maintain = Some(format!("{report:?}"));
+    stats.last_maintain = Some(report);
 }
