@@ -1,7 +1,7 @@
 //! Insertion: where a new leaf (or a detached subtree) goes, and the repair above it.
 
 use super::DynamicBvh;
-use super::node::NULL;
+use super::node::{NULL, prefetch_index};
 use crate::Aabb;
 
 impl DynamicBvh {
@@ -49,9 +49,7 @@ impl DynamicBvh {
             for (n, leaf) in [(n1, leaf1), (n2, leaf2)] {
                 if !leaf {
                     for c in n.children {
-                        if let Some(grandchild) = nodes.get(c as usize) {
-                            crate::prefetch::prefetch_node(grandchild);
-                        }
+                        prefetch_index(nodes, c);
                     }
                 }
             }

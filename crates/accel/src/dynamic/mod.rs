@@ -554,9 +554,7 @@ impl BoundingTree for DynamicBvh {
 
     #[inline]
     fn prefetch_node(&self, node: u32) {
-        if let Some(n) = self.arena.nodes.get(node as usize) {
-            crate::prefetch::prefetch_node(n);
-        }
+        node::prefetch_index(&self.arena.nodes, node);
     }
 
     #[inline]

@@ -159,3 +159,13 @@ impl Arena {
         self.free_count
     }
 }
+
+/// Prefetches node `i` of `nodes` if it exists ([`NULL`] and stale indices are skipped): the
+/// arena's order is random after insertions, so walks that know their next nodes ask for them
+/// early.
+#[inline(always)]
+pub(crate) fn prefetch_index(nodes: &[Node], i: u32) {
+    if let Some(n) = nodes.get(i as usize) {
+        crate::prefetch::prefetch_node(n);
+    }
+}

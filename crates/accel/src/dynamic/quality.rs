@@ -3,9 +3,9 @@
 //! The SAH cost of the tree is `(ct * sum internal areas + ci * sum leaf areas) / root area`.
 //! Every box write goes through `set_aabb`, which keeps both sums current, so the cost is O(1)
 //! to read. What a fresh build *would* cost is estimated from a sample: a binned-SAH build over
-//! about a thousand leaves, taken at a stride through the arena, costs a fixed fraction of a
-//! build over all `n` per sampled leaf, and that fraction is measured at each rebuild (when
-//! the tree *is* a fresh build). The sample is rebuilt every few frames that changed the
+//! about a thousand leaves drawn at random from the arena costs, per sampled leaf, a fixed
+//! fraction of what a build over all `n` costs per leaf, and that fraction is measured at each
+//! rebuild (when a fresh build's cost is known). The sample is rebuilt every few frames that changed the
 //! tree, so the estimate follows the scene as it spreads, clusters, or as leaves grow fat.
 //!
 //! The first version scaled the last build's internal-to-leaf area ratio by the current leaf
@@ -140,17 +140,10 @@ impl DynamicBvh {
         }
     }
 
-    /// SAH cost per leaf of a binned-SAH build over a strided sample of the leaves' fat boxes,
-    /// or `None` for an empty tree.
+    /// SAH cost per leaf of a binned-SAH build over a random sample of the leaves' fat boxes
+    /// (all of them in a small tree), or `None` for an empty tree.
     fn sample_cost_per_leaf(&self) -> Option<f64> {
         let nodes = &self.arena.nodes;
-        // Slots are drawn at pseudo-random (fixed-seed, so every sample is drawn alike) until
-        // the sample holds about `SAMPLE_LEAVES` leaves. Not a stride through the arena: an
-        // insertion allocates a leaf and its parent together, so leaves and internal nodes
-        // alternate there and an even stride can land on internal nodes only. And always about
-        // the same number of leaves, whatever the population: a sample of another size would
-        // have another cost per leaf (deeper trees cost more per leaf), and the estimate would
-        // drift with the population instead of with the tree.
         // A small tree is measured whole: drawing with replacement from it would repeat
         // leaves, and repeats change the cost per leaf.
         if self.leaf_count <= 2 * SAMPLE_LEAVES {
@@ -161,6 +154,13 @@ impl DynamicBvh {
                 .collect();
             return self.cost_per_leaf_of(&boxes);
         }
+        // Slots are drawn at pseudo-random (fixed-seed, so every sample is drawn alike) until
+        // the sample holds about `SAMPLE_LEAVES` leaves. Not a stride through the arena: an
+        // insertion allocates a leaf and its parent together, so leaves and internal nodes
+        // alternate there and an even stride can land on internal nodes only. And always about
+        // the same number of leaves, whatever the population: a sample of another size would
+        // have another cost per leaf (deeper trees cost more per leaf), and the estimate would
+        // drift with the population instead of with the tree.
         let wanted = SAMPLE_LEAVES;
         let mut boxes: Vec<Aabb> = Vec::with_capacity(wanted);
         let mut state = 0x9E37_79B9_7F4A_7C15u64;

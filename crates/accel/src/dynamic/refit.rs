@@ -1,7 +1,7 @@
 //! The batched refit: only the paths above moved leaves, each node once, bottom-up.
 
 use super::DynamicBvh;
-use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL};
+use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL, prefetch_index};
 use crate::prefetch::prefetch_node;
 
 impl DynamicBvh {
@@ -46,10 +46,10 @@ impl DynamicBvh {
             // the parent of the one needed 8 steps from now (its leaf asked for 8 steps ago),
             // are fetched while this one is processed.
             if let Some(&ahead) = self.dirty.get(k + 16) {
-                hint(&self.arena.nodes, ahead);
+                prefetch_index(&self.arena.nodes, ahead);
             }
             if let Some(&ahead) = self.dirty.get(k + 8) {
-                hint(&self.arena.nodes, self.arena.nodes[ahead as usize].parent);
+                prefetch_index(&self.arena.nodes, self.arena.nodes[ahead as usize].parent);
             }
             let leaf = self.dirty[k];
             let n = &mut self.arena.nodes[leaf as usize];
@@ -75,11 +75,11 @@ impl DynamicBvh {
             for j in 0..bucket.len() {
                 // As above: the node 16 steps ahead, the children of the one 8 steps ahead.
                 if let Some(&ahead) = bucket.get(j + 16) {
-                    hint(&self.arena.nodes, ahead);
+                    prefetch_index(&self.arena.nodes, ahead);
                 }
                 if let Some(&ahead) = bucket.get(j + 8) {
                     for c in self.arena.nodes[ahead as usize].children {
-                        hint(&self.arena.nodes, c);
+                        prefetch_index(&self.arena.nodes, c);
                     }
                 }
                 let i = bucket[j];
@@ -222,12 +222,4 @@ fn queue_node(
         buckets.resize_with(h + 1, Vec::new);
     }
     buckets[h].push(node);
-}
-
-/// Prefetches node `i` if it exists (`NULL` and stale indices are skipped).
-#[inline(always)]
-fn hint(nodes: &[super::node::Node], i: u32) {
-    if let Some(n) = nodes.get(i as usize) {
-        prefetch_node(n);
-    }
 }
