@@ -66,6 +66,8 @@ pub struct AccelTrees {
     pub(crate) pair: StaticDynamicPair,
     tracked: EntityHashMap<Tracked>,
     slots: Vec<SlotEntry>,
+    /// The entity of each slot again, packed: see [`AccelTrees::slot_entities`].
+    entities_by_slot: Vec<Option<Entity>>,
     free_slots: Vec<u32>,
     /// Static boxes by slot (empty for slots that are not static), the static tree's input.
     static_bounds: Vec<Aabb>,
@@ -122,6 +124,13 @@ impl AccelTrees {
         self.tracked.is_empty()
     }
 
+    /// The entity in each slot, indexed by slot (`None` for free slots): for passes over many
+    /// slots in order, where this array's 8 bytes per slot touch a quarter of the cache lines
+    /// that [`AccelTrees::entity`]'s entries do.
+    pub fn slot_entities(&self) -> &[Option<Entity>] {
+        &self.entities_by_slot
+    }
+
     /// Every tracked entity with its slot.
     pub fn iter(&self) -> impl Iterator<Item = (Entity, u32)> + '_ {
         self.tracked.iter().map(|(e, t)| (*e, t.slot))
@@ -138,9 +147,11 @@ impl AccelTrees {
         };
         if let Some(slot) = self.free_slots.pop() {
             self.slots[slot as usize] = entry;
+            self.entities_by_slot[slot as usize] = Some(entity);
             slot
         } else {
             self.slots.push(entry);
+            self.entities_by_slot.push(Some(entity));
             self.static_bounds.push(Aabb::EMPTY);
             (self.slots.len() - 1) as u32
         }
@@ -223,6 +234,7 @@ impl AccelTrees {
 
     fn release_slot(&mut self, slot: u32) {
         self.slots[slot as usize] = SlotEntry::FREE;
+        self.entities_by_slot[slot as usize] = None;
         self.free_slots.push(slot);
     }
 

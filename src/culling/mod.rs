@@ -6,7 +6,10 @@
 //! subtree fully inside without testing its entities, and runs Bevy's own per-entity tests only
 //! on entities whose leaf straddles a plane, so its results are Bevy's.
 
+mod prefetch;
+mod slot_order;
 mod system;
+mod tree_pass;
 
 use crate::AccelSystems;
 use bevy::camera::visibility::{

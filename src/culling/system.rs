@@ -1,5 +1,7 @@
 //! The culling system: trees for the entities they hold, Bevy's tests for the rest.
 
+use super::slot_order::FoundSlots;
+use super::tree_pass::{BoundsItem, ClassLists, DecideItem, TOUCH_BATCH, ViewPass};
 use crate::components::AccelIgnore;
 use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
@@ -9,7 +11,7 @@ use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
     VisibilityRange, VisibleEntities, VisibleEntityRanges,
 };
-use bevy::ecs::entity::EntityHashMap;
+use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
 use bevy::prelude::*;
 use bevy::utils::{Parallel, TypeIdMap};
@@ -36,9 +38,9 @@ pub struct CullingStats {
 }
 
 /// Above this fraction of tracked entities visible (in the view's previous frame), a flat
-/// pass over all entities beats the tree: the per-entity cost of a tree hit (a random entity
-/// lookup) is about 2.5x that of a linear scan, so the crossover sits near 20-30% (measured in
-/// `benches/culling.rs`).
+/// pass over all entities beats the tree: a tree hit costs an entity lookup, about 2x (at
+/// first 2.5x) what the linear scan spends per entity, so the crossover sits near 20-50%
+/// (measured in `benches/culling.rs`; the lower end is kept, where both cost about the same).
 const FLAT_PASS_ABOVE: f32 = 0.2;
 
 type ViewItem = (
@@ -96,7 +98,12 @@ pub(crate) fn cull_views_with_trees(
     mut stats: ResMut<CullingStats>,
     mut thread_queues: Local<Parallel<TypeIdMap<Vec<Entity>>>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
-    mut found: Local<Vec<(Entity, bool)>>,
+    mut found: Local<FoundSlots>,
+    mut inside: Local<Vec<Entity>>,
+    mut crossing: Local<Vec<Entity>>,
+    mut class_lists: Local<ClassLists>,
+    entities: &Entities,
+    bounds: Query<BoundsItem, Without<NoCpuCulling>>,
 ) {
     let start = Instant::now();
     let mut s = CullingStats::default();
@@ -139,71 +146,54 @@ pub(crate) fn cull_views_with_trees(
             mask: &view_mask,
             ranges,
         };
-        // Decides one entity as Bevy's `check_visibility_cpu_culling` does; `exact` false
-        // means a tree already proved it inside the frustum.
-        let mut consider = |entity: Entity, exact: bool, s: &mut CullingStats| {
-            let Ok((
-                _,
-                inherited,
-                mut view_visibility,
-                class,
-                layers,
-                aabb,
-                sphere,
-                transform,
-                no_frustum_culling,
-                has_range,
-            )) = candidates.get_mut(entity)
-            else {
-                return;
-            };
-            if !filter.admits(entity, inherited, layers, has_range) {
-                return;
-            }
-            if exact && !no_frustum_culling && !no_cpu_culling_view {
-                s.tested += 1;
-                if !bevy_frustum_test(frustum, aabb, sphere, transform) {
-                    return;
-                }
-            } else if !exact {
-                s.accepted_by_subtree += 1;
-            }
-            view_visibility.set_visible();
-            s.visible += 1;
-            if let Some(class) = class {
-                for id in class.iter() {
-                    visible_entities.get_mut(*id).push(entity);
-                }
-            }
+        // Decisions read the visibility components through a narrow lens, and the bounds
+        // through their own query only where a frustum test is needed. Why: a lookup's cost
+        // grows with the width of the query (each component's column is located per lookup),
+        // and most finds are accepted whole.
+        let mut lens = candidates.transmute_lens_filtered::<DecideItem, Without<NoCpuCulling>>();
+        let mut deciding = lens.query();
+        let mut pass = ViewPass {
+            filter,
+            frustum,
+            no_cpu_culling_view,
+            deciding: &mut deciding,
+            bounds: &bounds,
+            lists: &mut class_lists,
+            stats: &mut s,
         };
         if no_cpu_culling_view {
             // The camera opted out of culling: everything passes, so the trees have nothing
-            // to skip. Walk what they hold without tests.
+            // to skip. Decide what they hold, without frustum tests.
             for (entity, _) in trees.iter() {
-                consider(entity, true, &mut s);
+                pass.decide_exact(entity);
             }
         } else {
-            // The tree finds entities in spatial order, which is random in the ECS tables.
-            // Deciding them in entity order instead makes the component reads nearly
-            // sequential for entities spawned together (a level, a crowd), and the visible
-            // lists come out sorted, as Bevy needs them, at the cost of one sort that the
-            // lists needed anyway.
+            // The tree finds entities in spatial order, which is random in the ECS tables;
+            // they are decided in slot order instead (see `FoundSlots`).
             found.clear();
             trees
                 .query()
                 .for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
-                    if let Some(entity) = trees.entity(slot) {
-                        found.push((entity, containment != Containment::Inside));
-                    }
+                    found.push(slot, containment != Containment::Inside);
                 });
-            found.sort_unstable_by_key(|&(entity, _)| entity.index_u32());
-            for &(entity, exact) in found.iter() {
-                consider(entity, exact, &mut s);
+            inside.clear();
+            crossing.clear();
+            found.drain_entities(trees.slot_entities(), &mut inside, &mut crossing);
+            for batch in inside.chunks(TOUCH_BATCH) {
+                pass.touch_rows(batch, entities);
+                pass.decide_inside(batch);
+            }
+            for batch in crossing.chunks(TOUCH_BATCH) {
+                pass.touch_rows(batch, entities);
+                for &entity in batch {
+                    pass.decide_exact(entity);
+                }
             }
         }
         for entity in untracked.iter().chain(rejected.iter()) {
-            consider(entity, true, &mut s);
+            pass.decide_exact(entity);
         }
+        class_lists.flush_into(&mut visible_entities);
         // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
         // already; the sort finds the runs in linear time).
         for list in visible_entities.entities.values_mut() {
@@ -220,7 +210,7 @@ pub(crate) fn cull_views_with_trees(
 /// hierarchy, shares a render layer with the view, and is within its visibility range. Both
 /// culling paths ask it, so they cannot drift apart.
 #[derive(Clone, Copy)]
-struct ViewFilter<'a> {
+pub(crate) struct ViewFilter<'a> {
     view: Entity,
     mask: &'a RenderLayers,
     ranges: Option<&'a VisibleEntityRanges>,
@@ -228,7 +218,7 @@ struct ViewFilter<'a> {
 
 impl ViewFilter<'_> {
     #[inline]
-    fn admits(
+    pub(crate) fn admits(
         &self,
         entity: Entity,
         inherited: &InheritedVisibility,
@@ -301,7 +291,7 @@ fn flat_pass(
 
 /// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane
 /// included and far plane excluded; entities with neither `Aabb` nor `Sphere` pass.
-fn bevy_frustum_test(
+pub(crate) fn bevy_frustum_test(
     frustum: &Frustum,
     aabb: Option<&Aabb>,
     sphere: Option<&Sphere>,

@@ -1,0 +1,152 @@
+//! The slots a view's tree walk found, handed back in slot order.
+
+use bevy::prelude::Entity;
+
+/// Slots found by a frustum walk, each with whether it still needs the exact test, returned in
+/// ascending slot order.
+///
+/// Why slot order: slots are handed out as the sync system meets entities, which is the order
+/// of Bevy's tables, so deciding entities by slot makes their component reads nearly sequential
+/// where the walk's spatial order makes each one a cache miss. Why not a comparison sort: at
+/// 1M entities with 5% in view, sorting the 50k finds took longer than the walk itself (4.2 ms
+/// against 2.9 ms, measured in `benches/culling.rs`). When the finds are dense in the slot
+/// range a bitset over the slots orders them in linear time instead.
+#[derive(Default)]
+pub(crate) struct FoundSlots {
+    /// `slot << 1 | exact`, in walk order.
+    keys: Vec<u64>,
+    /// One bit per key value; all zero between uses (draining clears what it reads).
+    bits: Vec<u64>,
+    /// Scratch for [`FoundSlots::drain_entities`], kept for its allocation.
+    ordered: Vec<(u32, bool)>,
+}
+
+impl FoundSlots {
+    /// Forgets the previous view's finds.
+    pub(crate) fn clear(&mut self) {
+        self.keys.clear();
+    }
+
+    /// Records a slot the walk found; `exact` means its entity still needs the exact test.
+    #[inline]
+    pub(crate) fn push(&mut self, slot: u32, exact: bool) {
+        self.keys.push((u64::from(slot) << 1) | u64::from(exact));
+    }
+
+    /// The slots found as `(slot, exact)`, in ascending slot order, then forgets them.
+    /// `slot_capacity` bounds the slots pushed (one past the largest).
+    fn drain_in_slot_order(
+        &mut self,
+        slot_capacity: usize,
+    ) -> impl ExactSizeIterator<Item = (u32, bool)> + '_ {
+        let key_words = (slot_capacity * 2).div_ceil(64);
+        // The bitset costs a pass over `key_words` words; a sort costs ~log2(n) per key.
+        // Pick whichever is fewer steps (a key larger than the capacity, which a caller
+        // should never push, falls back to the sort rather than indexing out of range).
+        let dense = self.keys.len() * 16 >= key_words
+            && self.keys.iter().all(|&k| ((k >> 6) as usize) < key_words);
+        if dense {
+            if self.bits.len() < key_words {
+                self.bits.resize(key_words, 0);
+            }
+            for &key in &self.keys {
+                self.bits[(key >> 6) as usize] |= 1 << (key & 63);
+            }
+            self.keys.clear();
+            for (w, word) in self.bits[..key_words].iter_mut().enumerate() {
+                let mut b = core::mem::take(word);
+                while b != 0 {
+                    self.keys
+                        .push(((w as u64) << 6) | u64::from(b.trailing_zeros()));
+                    b &= b - 1;
+                }
+            }
+        } else {
+            self.keys.sort_unstable();
+        }
+        self.keys
+            .drain(..)
+            .map(|key| ((key >> 1) as u32, key & 1 == 1))
+    }
+
+    /// The entities of the slots found, in slot order: those a tree proved inside the frustum
+    /// into `inside`, those still needing the exact test into `crossing`; then forgets them.
+    /// `slot_entities` is [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
+    pub(crate) fn drain_entities(
+        &mut self,
+        slot_entities: &[Option<Entity>],
+        inside: &mut Vec<Entity>,
+        crossing: &mut Vec<Entity>,
+    ) {
+        let mut ordered = core::mem::take(&mut self.ordered);
+        ordered.clear();
+        ordered.extend(self.drain_in_slot_order(slot_entities.len()));
+        for &(slot, exact) in &ordered {
+            if let Some(Some(entity)) = slot_entities.get(slot as usize) {
+                if exact {
+                    crossing.push(*entity);
+                } else {
+                    inside.push(*entity);
+                }
+            }
+        }
+        self.ordered = ordered;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FoundSlots;
+    use bevy::prelude::Entity;
+
+    /// Both orderings (bitset when dense, sort when sparse) give every slot once, ascending,
+    /// with its flag.
+    #[test]
+    fn drains_ascending_with_flags_dense_and_sparse() {
+        for (capacity, step) in [(10_000usize, 3u32), (10_000, 997), (1 << 16, 1)] {
+            let mut found = FoundSlots::default();
+            let mut expected = Vec::new();
+            // A scrambled order, as a tree walk produces.
+            let mut slots: Vec<u32> = (0..capacity as u32).step_by(step as usize).collect();
+            slots.reverse();
+            let middle = slots.len() / 2;
+            slots.swap(0, middle);
+            for &slot in &slots {
+                let exact = slot % 5 == 0;
+                found.push(slot, exact);
+                expected.push((slot, exact));
+            }
+            expected.sort_unstable();
+            for _ in 0..2 {
+                let got: Vec<_> = found.drain_in_slot_order(capacity).collect();
+                assert_eq!(got, expected, "capacity {capacity}, step {step}");
+                assert_eq!(found.drain_in_slot_order(capacity).len(), 0);
+                for &(slot, exact) in &expected {
+                    found.push(slot, exact);
+                }
+            }
+        }
+    }
+
+    /// Entities come out in slot order, split by flag, and free slots are skipped.
+    #[test]
+    fn drains_entities_split_by_flag_skipping_free_slots() {
+        let slot_entities: Vec<Option<Entity>> = (0..5_000u32)
+            .map(|i| (i % 7 != 3).then(|| Entity::from_raw_u32(i + 100).unwrap()))
+            .collect();
+        let mut found = FoundSlots::default();
+        for slot in (0..5_000u32).rev().filter(|s| s % 2 == 0) {
+            found.push(slot, slot % 3 == 0);
+        }
+        let (mut inside, mut crossing) = (Vec::new(), Vec::new());
+        found.drain_entities(&slot_entities, &mut inside, &mut crossing);
+        let expect = |exact: bool| -> Vec<Entity> {
+            (0..5_000u32)
+                .filter(|s| s % 2 == 0 && (s % 3 == 0) == exact)
+                .filter_map(|s| slot_entities[s as usize])
+                .collect()
+        };
+        assert_eq!(inside, expect(false));
+        assert_eq!(crossing, expect(true));
+    }
+}
