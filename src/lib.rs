@@ -59,7 +59,7 @@ pub use culling::AccelCullingPlugin;
 pub use picking::{AccelPickingPlugin, AccelRayCast};
 pub use settings::AccelSettings;
 pub use stats::AccelStats;
-pub use trees::{AccelTrees, TreeSlot};
+pub use trees::{AccelTrees, LocalFrame, TreeSlot};
 
 use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;

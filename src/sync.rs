@@ -8,7 +8,7 @@
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
-use crate::trees::AccelTrees;
+use crate::trees::{AccelTrees, LocalFrame};
 use accel::dynamic::DynamicBvhConfig;
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::ecs::entity::EntityHashSet;
@@ -55,13 +55,14 @@ pub(crate) fn add_membership_observers(app: &mut App) {
         .add_observer(queue_membership_check::<Remove>);
 }
 
-/// The world box of an entity, or why it has none. Non-finite or singular transforms would put
-/// NaN or infinities into the tree (a NaN box hides its whole subtree from every query), so
-/// they are refused here and the entity stays out until its transform is valid again.
-pub(crate) fn world_bounds(
+/// The world box and own space of an entity, or why it has none. Non-finite or singular
+/// transforms would put NaN or infinities into the tree (a NaN box hides its whole subtree
+/// from every query), so they are refused here and the entity stays out until its transform
+/// is valid again.
+pub(crate) fn placement(
     aabb: &BevyAabb,
     transform: &GlobalTransform,
-) -> Result<accel::Aabb, &'static str> {
+) -> Result<(accel::Aabb, LocalFrame), &'static str> {
     let affine = transform.affine();
     let det = affine.matrix3.determinant();
     if !det.is_finite() || !affine.translation.is_finite() {
@@ -78,7 +79,12 @@ pub(crate) fn world_bounds(
     if !world.is_finite() {
         return Err("its world bounds overflow");
     }
-    Ok(world)
+    // Inverted as Bevy's `MeshRayCast` does for each ray, so local rays match its own.
+    let frame = LocalFrame {
+        local_from_world: affine.inverse(),
+        local_bounds: local,
+    };
+    Ok((world, frame))
 }
 
 type MembershipQuery<'w, 's> = Query<
@@ -207,15 +213,15 @@ fn place_checked(
     is_static: bool,
     counts: &mut SyncCounts,
 ) {
-    match world_bounds(aabb, gt) {
-        Ok(bounds) => {
+    match placement(aabb, gt) {
+        Ok((bounds, frame)) => {
             if rejected.0.remove(&entity) {
                 info!(
                     "bevy_accel: entity {entity} has a valid transform again and is back in the trees"
                 );
             }
             let was_tracked = trees.contains(entity);
-            if trees.place(entity, bounds, is_static) {
+            if trees.place(entity, bounds, frame, is_static) {
                 if was_tracked {
                     counts.updated += 1;
                 } else {

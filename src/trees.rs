@@ -3,7 +3,32 @@
 use accel::dynamic::{DynamicBvh, LeafHandle, StaticDynamicPair};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::ecs::entity::EntityHashMap;
+use bevy::math::Affine3A;
 use bevy::prelude::*;
+
+/// An entity's own space as the trees last saw it: what an exact ray test needs once a ray
+/// has reached the entity's world box.
+///
+/// Kept by slot, next to the world boxes, because a ray's candidates are scattered through the
+/// ECS tables: reading the `GlobalTransform` and `Aabb` rows and inverting the transform for
+/// each candidate cost three cache misses and an inversion (perf on the picking bench put the
+/// transform read alone at a tenth of a ray). Written by the sync system whenever it places
+/// the entity, so it is as current as the trees: a `GlobalTransform` edited after the sync
+/// (by hand, in `PostUpdate`) is seen from the next frame, as the trees' boxes are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalFrame {
+    /// World to the entity's space: the inverse of its `GlobalTransform`.
+    pub local_from_world: Affine3A,
+    /// The entity's `Aabb`, in its own space.
+    pub local_bounds: Aabb,
+}
+
+impl LocalFrame {
+    const NONE: Self = Self {
+        local_from_world: Affine3A::IDENTITY,
+        local_bounds: Aabb::EMPTY,
+    };
+}
 
 /// Where a tracked entity lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,6 +91,8 @@ pub struct AccelTrees {
     pub(crate) pair: StaticDynamicPair,
     tracked: EntityHashMap<Tracked>,
     slots: Vec<SlotEntry>,
+    /// The entity's own space, by slot: see [`LocalFrame`].
+    frames: Vec<LocalFrame>,
     /// The entity of each slot again, packed: see [`AccelTrees::slot_entities`].
     entities_by_slot: Vec<Option<Entity>>,
     free_slots: Vec<u32>,
@@ -124,6 +151,12 @@ impl AccelTrees {
         self.tracked.is_empty()
     }
 
+    /// The entity's own space in a slot (meaningless for a free slot).
+    #[inline]
+    pub fn local_frame(&self, slot: u32) -> Option<&LocalFrame> {
+        self.frames.get(slot as usize)
+    }
+
     /// The entity in each slot, indexed by slot (`None` for free slots): for passes over many
     /// slots in order, where this array's 8 bytes per slot touch a quarter of the cache lines
     /// that [`AccelTrees::entity`]'s entries do.
@@ -140,30 +173,39 @@ impl AccelTrees {
         self.pair.dynamic_mut()
     }
 
-    fn allocate_slot(&mut self, entity: Entity, bounds: Aabb) -> u32 {
+    fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
         let entry = SlotEntry {
             bounds,
             entity: Some(entity),
         };
         if let Some(slot) = self.free_slots.pop() {
             self.slots[slot as usize] = entry;
+            self.frames[slot as usize] = frame;
             self.entities_by_slot[slot as usize] = Some(entity);
             slot
         } else {
             self.slots.push(entry);
+            self.frames.push(frame);
             self.entities_by_slot.push(Some(entity));
             self.static_bounds.push(Aabb::EMPTY);
             (self.slots.len() - 1) as u32
         }
     }
 
-    /// Puts an entity in the tree it belongs in, or moves it there, with a valid world box.
-    /// Returns whether a tree changed.
-    pub(crate) fn place(&mut self, entity: Entity, bounds: Aabb, is_static: bool) -> bool {
+    /// Puts an entity in the tree it belongs in, or moves it there, with a valid world box and
+    /// its own space. Returns whether a tree changed.
+    pub(crate) fn place(
+        &mut self,
+        entity: Entity,
+        bounds: Aabb,
+        frame: LocalFrame,
+        is_static: bool,
+    ) -> bool {
         match self.tracked.get(&entity).copied() {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slots[t.slot as usize].bounds = bounds;
+                    self.frames[t.slot as usize] = frame;
                     match self.pair.dynamic_mut().update(h, bounds) {
                         Ok(changed) => changed,
                         Err(e) => {
@@ -171,11 +213,12 @@ impl AccelTrees {
                             // if it does, re-inserting keeps the entity in the tree.
                             error!("bevy_accel: updating {entity} failed ({e}); re-inserting it");
                             self.remove(entity);
-                            self.place(entity, bounds, false)
+                            self.place(entity, bounds, frame, false)
                         }
                     }
                 }
                 (TreeSlot::Static, true) => {
+                    self.frames[t.slot as usize] = frame;
                     // Static entities are placed only when (re)marked; a changed box means
                     // rebuilding the static tree.
                     if self.static_bounds[t.slot as usize] != bounds {
@@ -187,11 +230,11 @@ impl AccelTrees {
                 }
                 _ => {
                     self.remove(entity);
-                    self.place(entity, bounds, is_static)
+                    self.place(entity, bounds, frame, is_static)
                 }
             },
             None => {
-                let slot = self.allocate_slot(entity, bounds);
+                let slot = self.allocate_slot(entity, bounds, frame);
                 let tree = if is_static {
                     self.static_bounds[slot as usize] = bounds;
                     self.static_dirty = true;
@@ -234,6 +277,7 @@ impl AccelTrees {
 
     fn release_slot(&mut self, slot: u32) {
         self.slots[slot as usize] = SlotEntry::FREE;
+        self.frames[slot as usize] = LocalFrame::NONE;
         self.entities_by_slot[slot as usize] = None;
         self.free_slots.push(slot);
     }

@@ -5,7 +5,7 @@ use crate::AccelTrees;
 use accel::{
     Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
 };
-use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::camera::primitives::Frustum;
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
 use bevy::ecs::system::SystemParam;
 use bevy::ecs::system::lifetimeless::Read;
@@ -21,14 +21,11 @@ use core::ops::ControlFlow;
 /// The entities Bevy's `MeshRayCast` can hit: those with a mesh.
 type MeshFilter = Or<(With<Mesh3d>, With<Mesh2d>, With<SimplifiedMesh>)>;
 
-/// What the oriented-box test reads of a mesh candidate, before anything else: a third of
-/// the candidates stop there, and a narrow query is cheaper to look up (Bevy resolves every
-/// fetched component's column on each lookup).
-type MeshPlacementData = (Read<Aabb>, Read<GlobalTransform>);
-
-/// What a mesh ray cast reads of a candidate that passed the box test (with
-/// [`MeshPlacementData`], the same components as `MeshRayCast`).
+/// What a mesh ray cast reads of a candidate that passed the oriented-box test (which reads
+/// the slot's [`LocalFrame`](crate::LocalFrame) instead of the ECS: a third of the candidates
+/// stop there). With the `Aabb` in the frame, the same components as `MeshRayCast`.
 type MeshTargetData = (
+    Read<GlobalTransform>,
     Read<InheritedVisibility>,
     Read<ViewVisibility>,
     Option<Read<Mesh2d>>,
@@ -42,7 +39,6 @@ type MeshTargetData = (
 type BoundsTargetData = (
     Option<Read<InheritedVisibility>>,
     Option<Read<ViewVisibility>>,
-    Read<Aabb>,
     Read<GlobalTransform>,
 );
 
@@ -97,7 +93,6 @@ pub struct AccelRayCast<'w, 's> {
     trees: Res<'w, AccelTrees>,
     meshes: Res<'w, Assets<Mesh>>,
     cache: Res<'w, AccelMeshCache>,
-    mesh_placements: Query<'w, 's, MeshPlacementData, MeshFilter>,
     mesh_targets: Query<'w, 's, MeshTargetData, MeshFilter>,
     bounds_targets: Query<'w, 's, BoundsTargetData>,
     hits: Local<'s, Vec<PendingHit>>,
@@ -256,7 +251,6 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             trees,
             meshes,
             cache,
-            mesh_placements,
             mesh_targets,
             bounds_targets,
             hits,
@@ -272,15 +266,15 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             // The exact box first: most candidates of a leaf fail it, and they then cost no
             // entity lookup.
             let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
-            let entity = trees.entity(slot)?;
-            let hit = match target {
+            let (entity, hit) = match target {
                 Target::Meshes => {
-                    let (aabb, transform) = mesh_placements.get(entity).ok()?;
-                    let (affine, local, local_box) = local_ray(r, transform, aabb)?;
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
-                    // the rest is read: a third of the candidates stop here.
-                    local.intersect_aabb(&local_box)?;
-                    let (inherited, view, mesh2d, mesh3d, simplified, both) =
+                    // any ECS read: a third of the candidates stop here.
+                    let frame = trees.local_frame(slot)?;
+                    let local = r.transformed(&frame.local_from_world);
+                    local.intersect_aabb(&frame.local_bounds)?;
+                    let entity = trees.entity(slot)?;
+                    let (transform, inherited, view, mesh2d, mesh3d, simplified, both) =
                         mesh_targets.get(entity).ok()?;
                     if !visible(settings.visibility, Some(inherited), Some(view))
                         || !(settings.filter)(entity)
@@ -297,21 +291,26 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     } else {
                         Backfaces::Cull
                     };
-                    match cache.get_or_build(handle.id(), meshes)? {
+                    let affine = transform.affine();
+                    let hit = match cache.get_or_build(handle.id(), meshes)? {
                         MeshShape::Triangles(mesh) => {
                             triangle_hit(&mesh, &affine, &local, backfaces)?
                         }
-                        MeshShape::Bounds => box_hit(&affine, &local, &local_box)?,
-                    }
+                        MeshShape::Bounds => box_hit(&affine, &local, &frame.local_bounds)?,
+                    };
+                    (entity, hit)
                 }
                 Target::Bounds => {
-                    let (inherited, view, aabb, transform) = bounds_targets.get(entity).ok()?;
+                    let entity = trees.entity(slot)?;
+                    let (inherited, view, transform) = bounds_targets.get(entity).ok()?;
                     if !visible(settings.visibility, inherited, view) || !(settings.filter)(entity)
                     {
                         return None;
                     }
-                    let (affine, local, local_box) = local_ray(r, transform, aabb)?;
-                    box_hit(&affine, &local, &local_box)?
+                    let frame = trees.local_frame(slot)?;
+                    let local = r.transformed(&frame.local_from_world);
+                    let hit = box_hit(&transform.affine(), &local, &frame.local_bounds)?;
+                    (entity, hit)
                 }
             };
             let distance = hit.distance;
@@ -340,23 +339,6 @@ fn visible(
         RayCastVisibility::Visible => inherited.is_none_or(|v| v.get()),
         RayCastVisibility::VisibleInView => view.is_none_or(|v| v.get()),
     }
-}
-
-/// The world ray in the entity's space, with its local box. The direction is transformed but
-/// not renormalised, so local `t` is world distance (the world direction is unit length).
-/// `None` for a singular transform, which Bevy cannot ray cast either.
-fn local_ray(
-    world: &Ray,
-    transform: &GlobalTransform,
-    aabb: &Aabb,
-) -> Option<(Affine3A, Ray, AccelAabb)> {
-    let affine = transform.affine();
-    if affine.matrix3.determinant() == 0.0 {
-        return None;
-    }
-    let local = world.transformed(&affine.inverse());
-    let local_box = AccelAabb::from_center_half_extents(aabb.center, aabb.half_extents);
-    Some((affine, local, local_box))
 }
 
 /// The nearest triangle hit, in Bevy's conventions: world point, normal in world space but
