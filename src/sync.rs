@@ -8,7 +8,7 @@
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
-use crate::trees::{AccelTrees, LocalFrame};
+use crate::trees::{AccelTrees, LocalFrame, Placed};
 use accel::dynamic::DynamicBvhConfig;
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::ecs::entity::EntityHashSet;
@@ -215,18 +215,16 @@ fn place_checked(
 ) {
     match placement(aabb, gt) {
         Ok((bounds, frame)) => {
-            if rejected.0.remove(&entity) {
+            // The set is almost always empty: skip hashing every moved entity into it.
+            if !rejected.0.is_empty() && rejected.0.remove(&entity) {
                 info!(
                     "bevy_accel: entity {entity} has a valid transform again and is back in the trees"
                 );
             }
-            let was_tracked = trees.contains(entity);
-            if trees.place(entity, bounds, frame, is_static) {
-                if was_tracked {
-                    counts.updated += 1;
-                } else {
-                    counts.inserted += 1;
-                }
+            match trees.place(entity, bounds, frame, is_static) {
+                Placed::Inserted => counts.inserted += 1,
+                Placed::Moved => counts.updated += 1,
+                Placed::Unchanged | Placed::Refused => {}
             }
         }
         Err(why) => {

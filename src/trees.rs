@@ -71,6 +71,19 @@ impl SlotEntry {
     };
 }
 
+/// What [`AccelTrees::place`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Placed {
+    /// The entity was not tracked and now is.
+    Inserted,
+    /// A tree changed for an entity already tracked (its box moved, or it changed tree).
+    Moved,
+    /// Nothing a query can see changed (the move stayed inside the leaf's fat box).
+    Unchanged,
+    /// The dynamic tree refused the entity (an error was logged); it stays untracked.
+    Refused,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Tracked {
     slot: u32,
@@ -193,27 +206,32 @@ impl AccelTrees {
     }
 
     /// Puts an entity in the tree it belongs in, or moves it there, with a valid world box and
-    /// its own space. Returns whether a tree changed.
+    /// its own space. Says what changed, so the caller needs no lookup of its own.
     pub(crate) fn place(
         &mut self,
         entity: Entity,
         bounds: Aabb,
         frame: LocalFrame,
         is_static: bool,
-    ) -> bool {
+    ) -> Placed {
+        let moved = |placed: Placed| match placed {
+            Placed::Inserted => Placed::Moved,
+            other => other,
+        };
         match self.tracked.get(&entity).copied() {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slots[t.slot as usize].bounds = bounds;
                     self.frames[t.slot as usize] = frame;
                     match self.pair.dynamic_mut().update(h, bounds) {
-                        Ok(changed) => changed,
+                        Ok(true) => Placed::Moved,
+                        Ok(false) => Placed::Unchanged,
                         Err(e) => {
                             // Cannot happen while handles and boxes are checked on the way in;
                             // if it does, re-inserting keeps the entity in the tree.
                             error!("bevy_accel: updating {entity} failed ({e}); re-inserting it");
                             self.remove(entity);
-                            self.place(entity, bounds, frame, false)
+                            moved(self.place(entity, bounds, frame, false))
                         }
                     }
                 }
@@ -225,12 +243,14 @@ impl AccelTrees {
                         self.slots[t.slot as usize].bounds = bounds;
                         self.static_bounds[t.slot as usize] = bounds;
                         self.static_dirty = true;
+                        Placed::Moved
+                    } else {
+                        Placed::Unchanged
                     }
-                    self.static_dirty
                 }
                 _ => {
                     self.remove(entity);
-                    self.place(entity, bounds, frame, is_static)
+                    moved(self.place(entity, bounds, frame, is_static))
                 }
             },
             None => {
@@ -245,12 +265,12 @@ impl AccelTrees {
                         Err(e) => {
                             error!("bevy_accel: {entity} could not enter the dynamic tree: {e}");
                             self.release_slot(slot);
-                            return false;
+                            return Placed::Refused;
                         }
                     }
                 };
                 self.tracked.insert(entity, Tracked { slot, tree });
-                true
+                Placed::Inserted
             }
         }
     }
