@@ -2,7 +2,6 @@
 
 use accel::dynamic::{DynamicBvh, LeafHandle, StaticDynamicPair};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
-use bevy::ecs::entity::EntityHashMap;
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 
@@ -90,6 +89,9 @@ struct Tracked {
     tree: TreeSlot,
 }
 
+/// No slot: an entity index with no tracked entity.
+const NO_SLOT: u32 = u32::MAX;
+
 /// The acceleration trees over the tracked entities: a dynamic BVH for things that move and a
 /// static BVH for things marked [`AccelStatic`](crate::AccelStatic), queried as one.
 ///
@@ -102,7 +104,15 @@ struct Tracked {
 #[derive(Resource, Default)]
 pub struct AccelTrees {
     pub(crate) pair: StaticDynamicPair,
-    tracked: EntityHashMap<Tracked>,
+    /// The slot of each tracked entity, by entity index ([`NO_SLOT`] where none); the slot's
+    /// entity must equal the one asked for, since Bevy reuses indices with a new generation.
+    /// Why not a hash map: every moved entity is looked up each frame, and sync visits them in
+    /// table order, which is nearly index order, so a direct array read is nearly sequential
+    /// where a hash map costs a hash and a probe at a random place.
+    slot_by_index: Vec<u32>,
+    /// The tree of each slot (meaningless for a free slot).
+    slot_trees: Vec<TreeSlot>,
+    tracked_count: usize,
     slots: Vec<SlotEntry>,
     /// The entity's own space, by slot: see [`LocalFrame`].
     frames: Vec<LocalFrame>,
@@ -146,22 +156,31 @@ impl AccelTrees {
 
     /// The slot and tree of a tracked entity.
     pub fn location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
-        self.tracked.get(&entity).map(|t| (t.slot, t.tree))
+        self.tracked(entity).map(|t| (t.slot, t.tree))
     }
 
     /// True when the entity is in a tree.
     pub fn contains(&self, entity: Entity) -> bool {
-        self.tracked.contains_key(&entity)
+        self.tracked(entity).is_some()
     }
 
     /// Number of tracked entities.
     pub fn len(&self) -> usize {
-        self.tracked.len()
+        self.tracked_count
     }
 
     /// True when nothing is tracked.
     pub fn is_empty(&self) -> bool {
-        self.tracked.is_empty()
+        self.tracked_count == 0
+    }
+
+    #[inline]
+    fn tracked(&self, entity: Entity) -> Option<Tracked> {
+        let slot = *self.slot_by_index.get(entity.index_u32() as usize)?;
+        (slot != NO_SLOT && self.entities_by_slot[slot as usize] == Some(entity)).then(|| Tracked {
+            slot,
+            tree: self.slot_trees[slot as usize],
+        })
     }
 
     /// The entity's own space in a slot (meaningless for a free slot).
@@ -177,9 +196,12 @@ impl AccelTrees {
         &self.entities_by_slot
     }
 
-    /// Every tracked entity with its slot.
+    /// Every tracked entity with its slot, in slot order.
     pub fn iter(&self) -> impl Iterator<Item = (Entity, u32)> + '_ {
-        self.tracked.iter().map(|(e, t)| (*e, t.slot))
+        self.entities_by_slot
+            .iter()
+            .enumerate()
+            .filter_map(|(slot, e)| e.map(|e| (e, slot as u32)))
     }
 
     pub(crate) fn dynamic_mut(&mut self) -> &mut DynamicBvh {
@@ -198,6 +220,7 @@ impl AccelTrees {
             slot
         } else {
             self.slots.push(entry);
+            self.slot_trees.push(TreeSlot::Static);
             self.frames.push(frame);
             self.entities_by_slot.push(Some(entity));
             self.static_bounds.push(Aabb::EMPTY);
@@ -218,7 +241,7 @@ impl AccelTrees {
             Placed::Inserted => Placed::Moved,
             other => other,
         };
-        match self.tracked.get(&entity).copied() {
+        match self.tracked(entity) {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slots[t.slot as usize].bounds = bounds;
@@ -254,6 +277,16 @@ impl AccelTrees {
                 }
             },
             None => {
+                let index = entity.index_u32() as usize;
+                if let Some(&old) = self.slot_by_index.get(index)
+                    && old != NO_SLOT
+                    && let Some(stale) = self.entities_by_slot[old as usize]
+                {
+                    // Bevy reuses an index only after its entity was despawned: the entity
+                    // still here is dead, and its removal, queued in the same frame, may come
+                    // after this insertion. Remove it now so no dead entity stays in a tree.
+                    self.remove(stale);
+                }
                 let slot = self.allocate_slot(entity, bounds, frame);
                 let tree = if is_static {
                     self.static_bounds[slot as usize] = bounds;
@@ -269,7 +302,12 @@ impl AccelTrees {
                         }
                     }
                 };
-                self.tracked.insert(entity, Tracked { slot, tree });
+                if self.slot_by_index.len() <= index {
+                    self.slot_by_index.resize(index + 1, NO_SLOT);
+                }
+                self.slot_by_index[index] = slot;
+                self.slot_trees[slot as usize] = tree;
+                self.tracked_count += 1;
                 Placed::Inserted
             }
         }
@@ -277,9 +315,11 @@ impl AccelTrees {
 
     /// Takes an entity out of its tree. Returns whether it was in one.
     pub(crate) fn remove(&mut self, entity: Entity) -> bool {
-        let Some(t) = self.tracked.remove(&entity) else {
+        let Some(t) = self.tracked(entity) else {
             return false;
         };
+        self.slot_by_index[entity.index_u32() as usize] = NO_SLOT;
+        self.tracked_count -= 1;
         match t.tree {
             TreeSlot::Dynamic(h) => {
                 if let Err(e) = self.pair.dynamic_mut().remove(h) {
@@ -317,5 +357,57 @@ impl AccelTrees {
     /// Number of entities in the static tree.
     pub fn static_len(&self) -> usize {
         self.pair.static_tree().primitive_count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{AccelTrees, LocalFrame, Placed};
+    use accel::Aabb;
+    use bevy::math::Vec3;
+    use bevy::prelude::Entity;
+
+    /// Bevy hands a despawned entity's index to a new entity. When the newcomer is placed
+    /// before the dead entity's removal is processed, the dead one must leave the trees then,
+    /// and its late removal must not take the newcomer out.
+    #[test]
+    fn a_reused_index_evicts_the_dead_entity_and_keeps_the_new_one() {
+        for is_static in [false, true] {
+            let mut trees = AccelTrees::default();
+            let dead = Entity::from_raw_u32(5).unwrap();
+            let newcomer = Entity::from_index_and_generation(
+                dead.index(),
+                dead.generation().after_versions(1),
+            );
+            let other = Entity::from_raw_u32(9).unwrap();
+            let bounds = Aabb::new(Vec3::ZERO, Vec3::ONE);
+            let frame = LocalFrame::NONE;
+            assert_eq!(
+                trees.place(other, bounds, frame, is_static),
+                Placed::Inserted
+            );
+            assert_eq!(
+                trees.place(dead, bounds, frame, is_static),
+                Placed::Inserted
+            );
+            assert_eq!(
+                trees.place(newcomer, bounds, frame, is_static),
+                Placed::Inserted
+            );
+            assert!(!trees.contains(dead) && trees.contains(newcomer));
+            assert!(!trees.remove(dead), "the dead entity was already evicted");
+            assert!(trees.contains(newcomer) && trees.contains(other));
+            assert_eq!(trees.len(), 2);
+            trees.rebuild_static_if_dirty();
+            let held = trees.dynamic().len() + trees.static_len();
+            assert_eq!(held, 2, "each entity in exactly one tree, once");
+            let mut listed: Vec<Entity> = trees.iter().map(|(e, _)| e).collect();
+            listed.sort();
+            let mut expected = vec![newcomer, other];
+            expected.sort();
+            assert_eq!(listed, expected);
+            assert!(trees.remove(newcomer) && trees.remove(other));
+            assert!(trees.is_empty() && trees.iter().next().is_none());
+        }
     }
 }
