@@ -6,6 +6,7 @@
 //! subtree fully inside without testing its entities, and runs Bevy's own per-entity tests only
 //! on entities whose leaf straddles a plane, so its results are Bevy's.
 
+mod class_lists;
 mod prefetch;
 mod slot_order;
 mod system;

@@ -1,7 +1,8 @@
 //! The culling system: trees for the entities they hold, Bevy's tests for the rest.
 
+use super::class_lists::ClassLists;
 use super::slot_order::FoundSlots;
-use super::tree_pass::{BoundsItem, ClassLists, DecideItem, TOUCH_BATCH, ViewPass};
+use super::tree_pass::{BoundsItem, DecideItem, TOUCH_BATCH, ViewPass};
 use crate::components::AccelIgnore;
 use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
@@ -14,8 +15,7 @@ use bevy::camera::visibility::{
 use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
 use bevy::prelude::*;
-use bevy::utils::{Parallel, TypeIdMap};
-use core::sync::atomic::{AtomicUsize, Ordering};
+use bevy::utils::Parallel;
 use core::time::Duration;
 use std::time::Instant;
 
@@ -96,7 +96,7 @@ pub(crate) fn cull_views_with_trees(
     mut candidates: Query<CandidateItem, Without<NoCpuCulling>>,
     untracked: UntrackedQuery,
     mut stats: ResMut<CullingStats>,
-    mut thread_queues: Local<Parallel<TypeIdMap<Vec<Entity>>>>,
+    mut thread_queues: Local<Parallel<(ClassLists, usize)>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
     mut found: Local<FoundSlots>,
     mut inside: Local<Vec<Entity>>,
@@ -236,15 +236,19 @@ impl ViewFilter<'_> {
 
 /// Bevy's own loop, for views that see most of the world: every entity once, in parallel,
 /// with Bevy's tests. Returns how many entities it made visible.
+///
+/// Each thread counts and gathers into its own state: a shared atomic counter would bounce its
+/// cache line between cores on every visible entity, and a hash-map entry per entity and
+/// class costs more than a search of the world's few classes. (An A/B run at 100k, 100%
+/// visible, measured the loop's own time unchanged within this machine's noise.)
 fn flat_pass(
     candidates: &mut Query<CandidateItem, Without<NoCpuCulling>>,
-    thread_queues: &mut Parallel<TypeIdMap<Vec<Entity>>>,
+    thread_queues: &mut Parallel<(ClassLists, usize)>,
     visible_entities: &mut VisibleEntities,
     filter: ViewFilter<'_>,
     frustum: &Frustum,
     no_cpu_culling_view: bool,
 ) -> usize {
-    let visible = AtomicUsize::new(0);
     candidates.par_iter_mut().for_each_init(
         || thread_queues.borrow_local_mut(),
         |queue,
@@ -270,23 +274,22 @@ fn flat_pass(
                 return;
             }
             view_visibility.set_visible();
-            visible.fetch_add(1, Ordering::Relaxed);
+            let (lists, visible) = &mut **queue;
+            *visible += 1;
             if let Some(class) = class {
-                for id in class.iter() {
-                    queue.entry(*id).or_default().push(entity);
-                }
+                lists.push(class, entity);
             }
         },
     );
-    for queues in thread_queues.iter_mut() {
-        for (class, entities) in queues {
-            visible_entities.get_mut(*class).append(entities);
-        }
+    let mut visible = 0;
+    for (lists, count) in thread_queues.iter_mut() {
+        lists.flush_into(visible_entities);
+        visible += core::mem::take(count);
     }
     for list in visible_entities.entities.values_mut() {
         list.sort_unstable();
     }
-    visible.into_inner()
+    visible
 }
 
 /// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane

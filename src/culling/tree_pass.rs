@@ -1,17 +1,17 @@
 //! Deciding the entities a view's tree walk found: Bevy's per-entity rules, with the frustum
 //! test only where a tree could not settle it.
 
+use super::class_lists::ClassLists;
 use super::prefetch::prefetch;
 use super::system::{ViewFilter, bevy_frustum_test};
 use crate::culling::system::CullingStats;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
-    VisibilityRange, VisibleEntities,
+    VisibilityRange,
 };
 use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
-use core::any::TypeId;
 
 /// What deciding an entity reads and writes, bounds aside.
 pub(crate) type DecideItem = (
@@ -33,33 +33,6 @@ pub(crate) type BoundsItem = (
 
 /// Entities whose ECS rows are fetched together before they are decided.
 pub(crate) const TOUCH_BATCH: usize = 32;
-
-/// Visible entities per visibility class for one view, before they go into its
-/// `VisibleEntities`. Why not push into `VisibleEntities` directly: that is a hash lookup per
-/// entity and class, where a world has a handful of classes.
-#[derive(Default)]
-pub(crate) struct ClassLists(Vec<(TypeId, Vec<Entity>)>);
-
-impl ClassLists {
-    #[inline]
-    fn push(&mut self, class: &VisibilityClass, entity: Entity) {
-        for id in class.iter() {
-            match self.0.iter_mut().find(|(c, _)| c == id) {
-                Some((_, list)) => list.push(entity),
-                None => self.0.push((*id, vec![entity])),
-            }
-        }
-    }
-
-    /// Moves the lists into the view's `VisibleEntities`, keeping their allocations here.
-    pub(crate) fn flush_into(&mut self, visible_entities: &mut VisibleEntities) {
-        for (class, list) in &mut self.0 {
-            if !list.is_empty() {
-                visible_entities.get_mut(*class).append(list);
-            }
-        }
-    }
-}
 
 /// One view's decisions: Bevy's rules for each entity, its frustum test where asked.
 pub(crate) struct ViewPass<'a, 'w, 's> {
