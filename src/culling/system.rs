@@ -179,8 +179,16 @@ pub(crate) fn cull_views_with_trees(
             inside.clear();
             crossing.clear();
             found.drain_entities(trees.slot_entities(), &mut inside, &mut crossing);
-            for batch in inside.chunks(TOUCH_BATCH) {
-                pass.touch_rows(batch, entities);
+            // Each batch's rows are requested while the batch before it is decided, so the
+            // prefetches have a batch's worth of work to arrive in.
+            let mut batches = inside.chunks(TOUCH_BATCH).peekable();
+            if let Some(first) = batches.peek() {
+                pass.touch_rows(first, entities);
+            }
+            while let Some(batch) = batches.next() {
+                if let Some(next) = batches.peek() {
+                    pass.touch_rows(next, entities);
+                }
                 pass.decide_inside(batch);
             }
             for batch in crossing.chunks(TOUCH_BATCH) {
