@@ -17,8 +17,6 @@ pub(crate) struct FoundSlots {
     keys: Vec<u64>,
     /// One bit per key value; all zero between uses (draining clears what it reads).
     bits: Vec<u64>,
-    /// Scratch for [`FoundSlots::drain_entities`], kept for its allocation.
-    ordered: Vec<(u32, bool)>,
 }
 
 impl FoundSlots {
@@ -78,10 +76,7 @@ impl FoundSlots {
         inside: &mut Vec<Entity>,
         crossing: &mut Vec<Entity>,
     ) {
-        let mut ordered = core::mem::take(&mut self.ordered);
-        ordered.clear();
-        ordered.extend(self.drain_in_slot_order(slot_entities.len()));
-        for &(slot, exact) in &ordered {
+        for (slot, exact) in self.drain_in_slot_order(slot_entities.len()) {
             if let Some(Some(entity)) = slot_entities.get(slot as usize) {
                 if exact {
                     crossing.push(*entity);
@@ -90,7 +85,6 @@ impl FoundSlots {
                 }
             }
         }
-        self.ordered = ordered;
     }
 }
 
