@@ -2,7 +2,7 @@
 
 use super::class_lists::ClassLists;
 use super::slot_order::FoundSlots;
-use super::tree_pass::{BoundsItem, DecideItem, TOUCH_BATCH, ViewPass};
+use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
 use crate::components::AccelIgnore;
 use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
@@ -65,6 +65,18 @@ type CandidateItem = (
     Has<VisibilityRange>,
 );
 
+/// Every cullable entity: the flat pass's full query, and the tree path's narrow one (they
+/// share `ViewVisibility` mutably, so one at a time). The inner lifetimes are `'static`, as
+/// `ParamSet` hands out its members with its own.
+type CandidateQueries<'w, 's> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, CandidateItem, Without<NoCpuCulling>>,
+        Query<'static, 'static, DecideItem, DecideFilter>,
+    ),
+>;
+
 /// Entities that can be seen but are not in the trees: no `Aabb` (Bevy never culls them), or
 /// kept out with `AccelIgnore`.
 type UntrackedQuery<'w, 's> = Query<
@@ -93,7 +105,7 @@ pub(crate) fn cull_views_with_trees(
     rejected: Res<RejectedEntities>,
     ranges: Option<Res<VisibleEntityRanges>>,
     mut views: Query<ViewItem>,
-    mut candidates: Query<CandidateItem, Without<NoCpuCulling>>,
+    mut candidates: CandidateQueries,
     untracked: UntrackedQuery,
     mut stats: ResMut<CullingStats>,
     mut thread_queues: Local<Parallel<(ClassLists, usize)>>,
@@ -124,7 +136,7 @@ pub(crate) fn cull_views_with_trees(
         {
             s.flat_views += 1;
             let visible = flat_pass(
-                &mut candidates,
+                &mut candidates.p0(),
                 &mut thread_queues,
                 &mut visible_entities,
                 ViewFilter {
@@ -136,7 +148,7 @@ pub(crate) fn cull_views_with_trees(
                 no_cpu_culling_view,
             );
             s.visible += visible;
-            s.tested += candidates.iter().len();
+            s.tested += candidates.p0().iter().len();
             visible_fraction.insert(view, visible as f32 / tracked);
             continue;
         }
@@ -146,12 +158,11 @@ pub(crate) fn cull_views_with_trees(
             mask: &view_mask,
             ranges,
         };
-        // Decisions read the visibility components through a narrow lens, and the bounds
+        // Decisions read the visibility components through a narrow query, and the bounds
         // through their own query only where a frustum test is needed. Why: a lookup's cost
         // grows with the width of the query (each component's column is located per lookup),
         // and most finds are accepted whole.
-        let mut lens = candidates.transmute_lens_filtered::<DecideItem, Without<NoCpuCulling>>();
-        let mut deciding = lens.query();
+        let mut deciding = candidates.p1();
         let mut pass = ViewPass {
             filter,
             frustum,

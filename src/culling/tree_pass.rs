@@ -23,6 +23,10 @@ pub(crate) type DecideItem = (
     Has<VisibilityRange>,
 );
 
+/// The entities decided: those the flat pass's query holds (`GlobalTransform` included, which
+/// Bevy's own query requires).
+pub(crate) type DecideFilter = (Without<NoCpuCulling>, With<GlobalTransform>);
+
 /// What Bevy's exact frustum test reads.
 pub(crate) type BoundsItem = (
     Option<&'static Aabb>,
@@ -39,7 +43,7 @@ pub(crate) struct ViewPass<'a, 'w, 's> {
     pub(crate) filter: ViewFilter<'a>,
     pub(crate) frustum: &'a Frustum,
     pub(crate) no_cpu_culling_view: bool,
-    pub(crate) deciding: &'a mut Query<'w, 's, DecideItem, Without<NoCpuCulling>>,
+    pub(crate) deciding: &'a mut Query<'w, 's, DecideItem, DecideFilter>,
     pub(crate) bounds: &'a Query<'w, 's, BoundsItem, Without<NoCpuCulling>>,
     pub(crate) lists: &'a mut ClassLists,
     pub(crate) stats: &'a mut CullingStats,
