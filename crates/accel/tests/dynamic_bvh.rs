@@ -423,6 +423,88 @@ fn mass_motion_frames_take_the_whole_tree_refit_and_stay_exact() {
 }
 
 #[test]
+fn whole_tree_refit_replays_its_schedule_until_links_change() {
+    // Frames of pure mass motion replay the compiled shape; between them every kind of link
+    // edit must invalidate it. The validator compares a schedule marked current with the
+    // tree. Without rotations the insertion and the removal are the only edits of their
+    // rounds; with them, a partial refit of small moves rewires links by rotation alone.
+    for rotations in [false, true] {
+        schedule_scenario(DynamicBvhConfig {
+            rotations,
+            ..DynamicBvhConfig::default()
+        });
+    }
+}
+
+/// Moves about `share` percent of the leaves by up to `step` units per axis.
+fn move_share(
+    t: &mut DynamicBvh,
+    model: &mut HashMap<u32, Aabb>,
+    handles: &HashMap<u32, LeafHandle>,
+    rng: &mut Rng,
+    (share, step): (u32, f32),
+) {
+    for (id, b) in model.iter_mut() {
+        if rng.below(100) < share {
+            let d = rng.vec3(-step, step);
+            *b = Aabb::new(b.min + d, b.max + d);
+            t.update(handles[id], *b).unwrap();
+        }
+    }
+}
+
+fn schedule_scenario(config: DynamicBvhConfig) {
+    let mut rng = Rng::new(23);
+    let extent = 60.0;
+    let mut t = DynamicBvh::with_config(config);
+    let mut model: HashMap<u32, Aabb> = HashMap::new();
+    let mut handles: HashMap<u32, LeafHandle> = HashMap::new();
+    for id in 0..2000u32 {
+        let b = random_box(&mut rng, extent);
+        handles.insert(id, t.insert(id, b).unwrap());
+        model.insert(id, b);
+    }
+    t.maintain();
+    let rotations = config.rotations;
+    for round in 0..6 {
+        for frame in 0..3 {
+            move_share(&mut t, &mut model, &handles, &mut rng, (60, 3.0));
+            assert!(t.refit() > 0);
+            t.validate().unwrap_or_else(|e| {
+                panic!("rotations {rotations}, round {round}, mass frame {frame}: {e}")
+            });
+            check_queries(&t, &model, &mut rng, extent, 4);
+        }
+        match round {
+            0 => {
+                let b = random_box(&mut rng, extent);
+                handles.insert(9999, t.insert(9999, b).unwrap());
+                model.insert(9999, b);
+            }
+            1 => {
+                let id = *model.keys().next().unwrap();
+                assert_eq!(t.remove(handles.remove(&id).unwrap()), Ok(id));
+                model.remove(&id);
+            }
+            // A few small moves, none clear of its fat box: the partial refit, whose
+            // rotations (when on) are its only link edits.
+            2 => {
+                move_share(&mut t, &mut model, &handles, &mut rng, (2, 0.3));
+                t.refit();
+            }
+            3 => {
+                t.optimize(std::time::Duration::from_secs(1), 64);
+            }
+            _ => t.rebuild(),
+        }
+        t.validate().unwrap_or_else(|e| {
+            panic!("rotations {rotations}, round {round}, after the edit: {e}")
+        });
+    }
+    check_ids(&t, &model, &handles);
+}
+
+#[test]
 fn quality_estimate_tracks_a_fresh_build_as_the_scene_changes() {
     // Motion that fattens leaves along their path, a world that spreads out, and a population
     // that grows and shrinks: the sampled estimate must stay near the measured fresh cost.

@@ -118,6 +118,7 @@ impl DynamicBvh {
     /// and no parent) into the tree under a new internal node, then refits and rotates the
     /// ancestors.
     pub(super) fn attach(&mut self, node: u32) {
+        self.schedule.invalidate();
         if self.root == NULL {
             self.root = node;
             self.arena.nodes[node as usize].parent = NULL;

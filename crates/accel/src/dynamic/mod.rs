@@ -63,6 +63,7 @@ mod optimize;
 mod pair;
 mod quality;
 mod refit;
+mod refit_schedule;
 mod remove;
 mod rotate;
 mod validate;
@@ -228,6 +229,8 @@ pub struct DynamicBvh {
     /// Reused by the refit pass: queued internal nodes, then the same sorted by height.
     refit_buckets: Vec<Vec<u32>>,
     refit_sorted: Vec<u32>,
+    /// The whole-tree refit's compiled shape, replayed while the links stay as they are.
+    schedule: refit_schedule::RefitSchedule,
     /// Sum of half areas of internal nodes and of leaves, kept current by every box write
     /// so the SAH cost is O(1) to read.
     internal_area: f64,
@@ -255,6 +258,7 @@ impl Clone for DynamicBvh {
             jumped_pending: self.jumped_pending,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
+            schedule: refit_schedule::RefitSchedule::default(),
             internal_area: self.internal_area,
             leaf_area: self.leaf_area,
             optimizer: optimize::OptimizerState::default(),
@@ -281,6 +285,7 @@ impl DynamicBvh {
             jumped_pending: 0,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
+            schedule: refit_schedule::RefitSchedule::default(),
             internal_area: 0.0,
             leaf_area: 0.0,
             optimizer: optimize::OptimizerState::default(),
@@ -333,6 +338,7 @@ impl DynamicBvh {
             }
         }
         self.root = NULL;
+        self.schedule.invalidate();
         self.leaf_count = 0;
         self.dirty.clear();
         self.jumped_pending = 0;
@@ -483,6 +489,7 @@ impl DynamicBvh {
                 + self.refit_buckets.iter().map(Vec::capacity).sum::<usize>()
                 + self.refit_sorted.capacity())
                 * 4
+            + self.schedule.memory_bytes()
     }
 
     #[inline]

@@ -380,6 +380,7 @@ impl DynamicBvh {
     /// build, whose boxes may have moved since); otherwise the installed tree's is used.
     fn install(&mut self, bvh: &Bvh, snapshot: &[(u32, u32)], build_cost: Option<f32>) {
         debug_assert!(self.dirty.is_empty());
+        self.schedule.invalidate();
         let len = self.arena.nodes.len();
         for i in 0..len as u32 {
             if self.arena.nodes[i as usize].is_internal() {

@@ -2,7 +2,6 @@
 
 use super::DynamicBvh;
 use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL, prefetch_index};
-use crate::prefetch::prefetch_node;
 
 impl DynamicBvh {
     /// Brings every ancestor of the leaves updated since the last call up to date, and
@@ -114,56 +113,31 @@ impl DynamicBvh {
         touched
     }
 
-    /// The refit for mass motion: every internal node recomputed once, in one post-order
-    /// pass, with no per-node queueing.
+    /// The refit for mass motion: every internal node recomputed once, by replaying the
+    /// tree's compiled shape (see [`super::refit_schedule`]), with no per-node queueing.
     ///
     /// When most leaves moved, the bucketed refit would queue nearly every internal node and
     /// pay for the flags, the buckets and one parent lookup per node on top of the
-    /// recomputation. A depth-first pass instead reads each node once, and a child's box
-    /// comes back to its parent on a value stack rather than by reading the child again (the
-    /// arena order is random, so each read is a cache miss at 100k leaves). Leaves' dirty
-    /// flags are cleared as they are reached, so the dirty list itself is never read. No
-    /// rotations here, for the reason given in [`Self::refit`]; the internal-area sum is
-    /// recomputed from scratch in the same pass.
+    /// recomputation; a depth-first pass would wait on one cache miss per node (the arena's
+    /// order is random after insertions). Leaves' dirty flags are cleared as they are
+    /// reached, so the dirty list itself is never read. No rotations here, for the reason
+    /// given in [`Self::refit`]; the internal-area sum is recomputed from scratch in the same
+    /// pass.
     fn refit_whole_tree(&mut self) -> usize {
         self.dirty.clear();
         let mut order = core::mem::take(&mut self.refit_sorted);
         order.clear();
-        if self.root == NULL {
-            self.refit_sorted = order;
-            return 0;
-        }
-        let nodes = &mut self.arena.nodes;
-        // (node, children done); the values are (box, height) of finished subtrees.
-        let mut stack: Vec<(u32, bool)> = Vec::with_capacity(64);
-        let mut values: Vec<(crate::Aabb, u32)> = Vec::with_capacity(64);
-        let mut internal_area = 0.0f64;
-        stack.push((self.root, false));
-        while let Some((i, children_done)) = stack.pop() {
-            let n = &mut nodes[i as usize];
-            if n.is_leaf() {
-                n.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
-                values.push((n.aabb, 0));
-            } else if !children_done {
-                let [a, b] = n.children;
-                stack.push((i, true));
-                stack.push((b, false));
-                stack.push((a, false));
-                prefetch_node(&nodes[b as usize]);
-                prefetch_node(&nodes[a as usize]);
+        if self.root != NULL {
+            let root = &mut self.arena.nodes[self.root as usize];
+            if root.is_leaf() {
+                root.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
             } else {
-                let (bb, hb) = values.pop().unwrap_or((crate::Aabb::EMPTY, 0));
-                let (ba, ha) = values.pop().unwrap_or((crate::Aabb::EMPTY, 0));
-                let aabb = ba.union(&bb);
-                let height = 1 + ha.max(hb);
-                n.aabb = aabb;
-                n.height = height;
-                internal_area += f64::from(aabb.half_area());
-                values.push((aabb, height));
-                order.push(i);
+                let replayed = self
+                    .schedule
+                    .replay(&mut self.arena.nodes, self.root, &mut order);
+                self.internal_area = replayed.internal_area;
             }
         }
-        self.internal_area = internal_area;
         let touched = order.len();
         self.refit_sorted = order;
         self.optimizer.note_refit();

@@ -8,6 +8,7 @@ impl DynamicBvh {
     /// sibling takes the parent's place (Box2D `b2RemoveLeaf`); the ancestors are refit up
     /// to the first one that does not change. `node` keeps its box and height, with no parent.
     pub(super) fn detach(&mut self, node: u32) {
+        self.schedule.invalidate();
         if node == self.root {
             self.root = NULL;
             return;

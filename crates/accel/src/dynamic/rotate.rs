@@ -51,6 +51,7 @@ impl DynamicBvh {
         let other = [b, c][1 - down_side];
         let up = self.arena.nodes[other as usize].children[up_slot];
         let keep = self.arena.nodes[other as usize].children[1 - up_slot];
+        self.schedule.invalidate();
 
         self.arena.nodes[a as usize].children[down_side] = up;
         self.arena.nodes[other as usize].children[up_slot] = down;

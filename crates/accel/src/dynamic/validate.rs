@@ -33,6 +33,9 @@ pub enum DynamicValidationError {
     Unreachable(u32),
     /// A traversal flag was left set.
     StaleFlag(u32),
+    /// The whole-tree refit's compiled shape is marked current but names other links than
+    /// the tree's (an edit did not invalidate it); the node is the first that differs.
+    StaleRefitSchedule(u32),
     /// The incrementally kept area sums drifted from the tree's real areas.
     AreaSums {
         /// Kept sums (internal, leaf).
@@ -163,6 +166,8 @@ impl DynamicBvh {
         }
         debug_assert_eq!(self.arena.live(), reached);
 
+        self.validate_refit_schedule()?;
+
         let (mut internal, mut leaf) = (0.0f64, 0.0f64);
         for n in nodes {
             if n.is_leaf() {
@@ -179,5 +184,46 @@ impl DynamicBvh {
             });
         }
         Ok(())
+    }
+
+    /// A schedule marked current must list exactly the tree's internal nodes, each with its
+    /// two children, breadth-first from the root: a replay of a stale one would write boxes
+    /// into nodes that are no longer where it thinks.
+    fn validate_refit_schedule(&self) -> Result<(), DynamicValidationError> {
+        if !self.schedule.is_valid() {
+            return Ok(());
+        }
+        let nodes = &self.arena.nodes;
+        let mut entries = self.schedule.entries();
+        let mut internal_nodes = Vec::new();
+        if self.root != NULL && nodes[self.root as usize].is_internal() {
+            internal_nodes.push(self.root);
+        }
+        let mut k = 0;
+        while k < internal_nodes.len() {
+            let i = internal_nodes[k];
+            k += 1;
+            let Some((listed, children)) = entries.next() else {
+                return Err(DynamicValidationError::StaleRefitSchedule(i));
+            };
+            if listed != i {
+                return Err(DynamicValidationError::StaleRefitSchedule(i));
+            }
+            for (c, recorded) in nodes[i as usize].children.into_iter().zip(children) {
+                let expected = if nodes[c as usize].is_internal() {
+                    internal_nodes.push(c);
+                    Ok(internal_nodes.len() as u32 - 1)
+                } else {
+                    Err(c)
+                };
+                if recorded != expected {
+                    return Err(DynamicValidationError::StaleRefitSchedule(i));
+                }
+            }
+        }
+        match entries.next() {
+            Some((extra, _)) => Err(DynamicValidationError::StaleRefitSchedule(extra)),
+            None => Ok(()),
+        }
     }
 }
