@@ -77,8 +77,22 @@ impl DynamicBvh {
                     prefetch_index(&self.arena.nodes, ahead);
                 }
                 if let Some(&ahead) = bucket.get(j + 8) {
-                    for c in self.arena.nodes[ahead as usize].children {
+                    let n = &self.arena.nodes[ahead as usize];
+                    for c in n.children {
                         prefetch_index(&self.arena.nodes, c);
+                    }
+                    // Its parent is queued (flags and height read) as soon as it changes.
+                    prefetch_index(&self.arena.nodes, n.parent);
+                }
+                // A rotation also reads the four grandchildren: ask for them once the
+                // children asked for four steps ago are (most likely) in.
+                if rotate && let Some(&ahead) = bucket.get(j + 4) {
+                    for c in self.arena.nodes[ahead as usize].children {
+                        if let Some(child) = self.arena.nodes.get(c as usize) {
+                            for g in child.children {
+                                prefetch_index(&self.arena.nodes, g);
+                            }
+                        }
                     }
                 }
                 let i = bucket[j];
@@ -147,6 +161,10 @@ impl DynamicBvh {
 
     fn reinsert_jumped_leaves(&mut self) {
         for k in 0..self.dirty.len() {
+            // The dirty list is in update order, scattered over the arena.
+            if let Some(&ahead) = self.dirty.get(k + 16) {
+                prefetch_index(&self.arena.nodes, ahead);
+            }
             let leaf = self.dirty[k];
             let n = &mut self.arena.nodes[leaf as usize];
             if n.flags & FLAG_JUMPED == 0 {
