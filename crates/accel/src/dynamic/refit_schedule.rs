@@ -3,8 +3,9 @@
 //!
 //! A depth-first refit over the arena is a chain of dependent loads: each node's children are
 //! known only once the node has arrived, and the arena's order is random after insertions, so
-//! at 100k leaves every step waits a full memory latency (about 180 ns on the benchmark VM,
-//! against 6 ns per line when the loads are independent and prefetched). The schedule turns
+//! at 100k leaves every step waits a full memory latency (about 200 ns on the benchmark VM,
+//! against 16 ns per line when the loads are independent and prefetched: the
+//! `dynamic_timing` example measures both). The schedule turns
 //! the refit into independent loads:
 //!
 //! - **Compiling** walks the tree breadth-first. The queue names every node long before it
@@ -35,7 +36,7 @@ const LEAF_CHILD: u32 = 1 << 31;
 const PREFETCH_DISTANCE: usize = 12;
 
 /// How many queue entries ahead compilation asks for nodes: its steps are short, so it must
-/// look further ahead than the replay to cover a memory latency (~180 ns on the VM).
+/// look further ahead than the replay to cover a memory latency (~200 ns on the VM).
 const COMPILE_PREFETCH_DISTANCE: usize = 48;
 
 /// The compiled shape of a [`super::DynamicBvh`] and the scratch its replay uses.
