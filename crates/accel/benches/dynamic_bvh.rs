@@ -2,7 +2,6 @@
 //! workload. Before the criterion groups, a 1,000-frame quality run prints the SAH ratio to a
 //! fresh build and the optimiser's time per frame (skip it with ACCEL_SKIP_QUALITY=1).
 
-use accel::dynamic::{DynamicBvh, LeafHandle};
 use accel::{Aabb, BuildConfig, Bvh};
 use criterion::{BatchSize, Criterion};
 use glam::Vec3A;
@@ -13,18 +12,7 @@ const N: usize = 100_000;
 
 #[path = "common/dynamic_workload.rs"]
 mod dynamic_workload;
-use dynamic_workload::{Rng, scene};
-
-fn tree(boxes: &[Aabb]) -> (DynamicBvh, Vec<LeafHandle>) {
-    let mut t = DynamicBvh::new();
-    let hs = boxes
-        .iter()
-        .enumerate()
-        .map(|(i, b)| t.insert(i as u32, *b).unwrap())
-        .collect();
-    t.rebuild();
-    (t, hs)
-}
+use dynamic_workload::{Rng, built_tree as tree, scene};
 
 fn to_obvhs(b: &Aabb) -> obvhs::aabb::Aabb {
     obvhs::aabb::Aabb::new(b.min, b.max)

@@ -16,8 +16,7 @@
 mod dynamic_workload;
 
 use accel::Aabb;
-use accel::dynamic::{DynamicBvh, LeafHandle};
-use dynamic_workload::{Rng, scene};
+use dynamic_workload::{Rng, built_tree as tree, scene};
 use glam::Vec3A;
 use std::time::{Duration, Instant};
 
@@ -26,17 +25,6 @@ const N: usize = 100_000;
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-fn tree(boxes: &[Aabb]) -> (DynamicBvh, Vec<LeafHandle>) {
-    let mut t = DynamicBvh::new();
-    let hs = boxes
-        .iter()
-        .enumerate()
-        .map(|(i, b)| t.insert(i as u32, *b).expect("finite box"))
-        .collect();
-    t.rebuild();
-    (t, hs)
 }
 
 /// Every leaf moved by 0 or 1 unit in turn, `rounds` times: (update, refit) ns per leaf.

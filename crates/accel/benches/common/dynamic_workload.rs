@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use accel::Aabb;
+use accel::dynamic::{DynamicBvh, LeafHandle};
 use glam::Vec3A;
 
 /// A 64-bit LCG: reproducible and dependency-free.
@@ -34,4 +35,17 @@ pub fn scene(n: usize, seed: u64) -> Vec<Aabb> {
     (0..n)
         .map(|_| Aabb::from_center_half_extents(r.v(-200.0, 200.0), r.v(0.1, 1.0)))
         .collect()
+}
+
+/// A dynamic tree over `boxes` (leaf ids are the indices), inserted one by one and then
+/// rebuilt, as a game's tree looks after loading; with the handles in box order.
+pub fn built_tree(boxes: &[Aabb]) -> (DynamicBvh, Vec<LeafHandle>) {
+    let mut t = DynamicBvh::new();
+    let hs = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| t.insert(i as u32, *b).expect("finite box"))
+        .collect();
+    t.rebuild();
+    (t, hs)
 }

@@ -14,7 +14,6 @@
 //! `cargo run --release --manifest-path crates/accel/peers/parry/Cargo.toml`
 
 use accel::Aabb;
-use accel::dynamic::{DynamicBvh, LeafHandle};
 use glam::Vec3A;
 use parry3d::bounding_volume::Aabb as ParryAabb;
 use parry3d::math::Vector;
@@ -25,7 +24,7 @@ const N: usize = 100_000;
 
 #[path = "../../../benches/common/dynamic_workload.rs"]
 mod dynamic_workload;
-use dynamic_workload::{Rng, scene};
+use dynamic_workload::{Rng, built_tree as ours, scene};
 
 fn parry(b: &Aabb) -> ParryAabb {
     ParryAabb::new(
@@ -50,17 +49,6 @@ fn best_of<S>(runs: usize, mut setup: impl FnMut() -> S, mut work: impl FnMut(&m
             elapsed
         })
         .fold(f64::INFINITY, f64::min)
-}
-
-fn ours(boxes: &[Aabb]) -> (DynamicBvh, Vec<LeafHandle>) {
-    let mut t = DynamicBvh::new();
-    let hs = boxes
-        .iter()
-        .enumerate()
-        .map(|(i, b)| t.insert(i as u32, *b).expect("finite box"))
-        .collect();
-    t.rebuild();
-    (t, hs)
 }
 
 fn theirs(boxes: &[Aabb]) -> (Bvh, BvhWorkspace) {
