@@ -146,10 +146,9 @@ impl DynamicBvh {
             if root.is_leaf() {
                 root.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
             } else {
-                let replayed = self
-                    .schedule
-                    .replay(&mut self.arena.nodes, self.root, &mut order);
-                self.internal_area = replayed.internal_area;
+                self.internal_area =
+                    self.schedule
+                        .replay(&mut self.arena.nodes, self.root, &mut order);
             }
         }
         let touched = order.len();

@@ -5,14 +5,14 @@
 //! known only once the node has arrived, and the arena's order is random after insertions, so
 //! at 100k leaves every step waits a full memory latency (about 200 ns on the benchmark VM,
 //! against 16 ns per line when the loads are independent and prefetched: the
-//! `dynamic_timing` example measures both). The schedule turns
-//! the refit into independent loads:
+//! `dynamic_timing` example measures both). The schedule turns the refit into independent
+//! loads:
 //!
 //! - **Compiling** walks the tree breadth-first. The queue names every node long before it
 //!   is read, so each is prefetched a fixed number of entries ahead and the reads overlap
-//!   instead of forming a chain. It records
-//!   the internal nodes in breadth-first order and, for each, where its two children are:
-//!   another entry of the schedule, or a leaf's arena slot.
+//!   instead of forming a chain. It records the internal nodes in breadth-first order and,
+//!   for each, where its two children are: another entry of the schedule, or a leaf's arena
+//!   slot.
 //! - **Replaying** runs the entries backwards, children before parents. An internal child's
 //!   box comes from a dense scratch array written earlier in the same pass; only the leaves
 //!   and the internal nodes' own boxes are scattered, and those are prefetched some entries
@@ -54,12 +54,6 @@ pub(super) struct RefitSchedule {
     /// Replay scratch, per entry: the box and height just computed.
     boxes: Vec<Aabb>,
     heights: Vec<u32>,
-}
-
-/// What one replay found.
-pub(super) struct Replayed {
-    /// Sum of the internal nodes' half areas.
-    pub internal_area: f64,
 }
 
 impl RefitSchedule {
@@ -127,7 +121,8 @@ impl RefitSchedule {
     /// Recomputes every internal node below `root` (an internal node) from its children,
     /// clears the leaves' dirty flags, and appends the internal nodes, children before
     /// parents, to `order`. Compiles first if the shape changed since the last replay.
-    pub fn replay(&mut self, nodes: &mut [Node], root: u32, order: &mut Vec<u32>) -> Replayed {
+    /// Returns the sum of the internal nodes' half areas.
+    pub fn replay(&mut self, nodes: &mut [Node], root: u32, order: &mut Vec<u32>) -> f64 {
         if !self.valid {
             self.compile(nodes, root);
         }
@@ -170,7 +165,7 @@ impl RefitSchedule {
             internal_area += f64::from(aabb.half_area());
             order.push(i);
         }
-        Replayed { internal_area }
+        internal_area
     }
 
     /// Bytes held.
