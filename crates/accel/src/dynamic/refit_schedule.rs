@@ -105,9 +105,16 @@ impl RefitSchedule {
             } else {
                 let entry = self.internal.len() as u32;
                 self.internal.push(i);
-                self.children.push([NULL; 2]);
-                for (s, c) in n.children.into_iter().enumerate() {
-                    self.queue.push((c, entry, s as u8));
+                if n.height == 1 {
+                    // Both children are leaves (heights are exact between edits; the
+                    // validator checks them): recorded without reading them, which spares
+                    // compilation a scattered read for most leaves.
+                    self.children.push(n.children.map(|c| c | LEAF_CHILD));
+                } else {
+                    self.children.push([NULL; 2]);
+                    for (s, c) in n.children.into_iter().enumerate() {
+                        self.queue.push((c, entry, s as u8));
+                    }
                 }
                 entry
             };
