@@ -6,6 +6,7 @@
 //!   refit after an insertion, removal or optimiser step runs);
 //! - 10% of the leaves moved at random by up to 1 unit per axis: `update`, the partial
 //!   `refit()` and the rest of `maintain()` per frame;
+//! - the tree's depth, by a walk of the tree (`stats`) and read from the root (`height`);
 //! - the machine's floor: what one 64-byte line costs over an array the size of the tree's
 //!   arena, read in order, at random with a prefetch, and in a chain of dependent loads.
 //!
@@ -114,6 +115,17 @@ fn main() {
     println!(
         "floor, ns per 64-byte line over 12.8 MB: in order {o:.1}, random prefetched {p:.1}, dependent chain {c:.1}"
     );
+    {
+        let (t, _) = tree(&boxes);
+        let s = Instant::now();
+        let depth = t.stats(&t.config().sah).max_depth;
+        let walk = s.elapsed();
+        let s = Instant::now();
+        let height = std::hint::black_box(&t).height();
+        let read = s.elapsed();
+        assert_eq!(depth, height);
+        println!("depth {depth}: stats() walk {walk:?}, height() {read:?}");
+    }
     let (u, r) = all_moved(&boxes, false, 40);
     println!(
         "all moved, schedule compiled: update {u:.1} ns/leaf, whole-tree refit {r:.1} ns/leaf"

@@ -500,6 +500,7 @@ fn schedule_scenario(config: DynamicBvhConfig) {
         t.validate().unwrap_or_else(|e| {
             panic!("rotations {rotations}, round {round}, after the edit: {e}")
         });
+        assert_eq!(t.height(), t.stats(&t.config().sah).max_depth);
     }
     check_ids(&t, &model, &handles);
 }

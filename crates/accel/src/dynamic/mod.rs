@@ -323,6 +323,17 @@ impl DynamicBvh {
         }
     }
 
+    /// The longest root-to-leaf path, in edges (0 for an empty tree or a lone leaf): the
+    /// [`TreeStats::max_depth`] of [`stats`](Self::stats), read in O(1) from the root's
+    /// stored height instead of a walk. Current after [`refit`](Self::refit).
+    pub fn height(&self) -> usize {
+        if self.root == NULL {
+            0
+        } else {
+            self.arena.nodes[self.root as usize].height as usize
+        }
+    }
+
     /// True while updates wait for [`refit`](Self::refit).
     pub fn needs_refit(&self) -> bool {
         !self.dirty.is_empty()
