@@ -46,6 +46,7 @@ mod components;
 pub mod culling;
 #[cfg(feature = "picking")]
 pub mod picking;
+mod prefetch;
 mod settings;
 mod stats;
 mod sync;

@@ -6,6 +6,7 @@
 //! no static entity and touches no tree.
 
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
+use crate::prefetch::{for_each_prefetched, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::{AccelTrees, LocalFrame, Placed};
@@ -24,7 +25,8 @@ pub(crate) struct PendingMembership(EntityHashSet);
 pub(crate) struct RejectedEntities(EntityHashSet);
 
 impl RejectedEntities {
-    /// The entities currently left out.
+    /// The entities currently left out (culling tests them one by one, outside the trees).
+    #[cfg_attr(not(feature = "culling"), allow(dead_code))]
     pub(crate) fn iter(&self) -> impl Iterator<Item = Entity> + '_ {
         self.0.iter().copied()
     }
@@ -157,7 +159,13 @@ pub(crate) fn sync_trees(
             }
         }
     }
-    for (entity, aabb, gt, marked) in &moved {
+    // The moved entities are scattered through their tables (only some moved): each one's
+    // `GlobalTransform` and `Aabb` rows are asked for a few entities ahead.
+    let rows_ahead = |&(_, aabb, gt, _): &(Entity, &BevyAabb, &GlobalTransform, bool)| {
+        prefetch_all(gt);
+        prefetch_all(aabb);
+    };
+    for_each_prefetched(moved.iter(), rows_ahead, |(entity, aabb, gt, marked)| {
         if wanted(marked) {
             place_checked(
                 &mut trees,
@@ -169,23 +177,27 @@ pub(crate) fn sync_trees(
                 &mut counts,
             );
         }
-    }
+    });
     if settings.watch_static_motion {
         // A static entity that moved anyway (an editor, a level change) gets its new box in a
         // rebuilt static tree rather than a stale one.
-        for (entity, aabb, gt, marked) in &moved_static {
-            if wanted(marked) {
-                place_checked(
-                    &mut trees,
-                    &mut rejected,
-                    entity,
-                    aabb,
-                    gt,
-                    true,
-                    &mut counts,
-                );
-            }
-        }
+        for_each_prefetched(
+            moved_static.iter(),
+            rows_ahead,
+            |(entity, aabb, gt, marked)| {
+                if wanted(marked) {
+                    place_checked(
+                        &mut trees,
+                        &mut rejected,
+                        entity,
+                        aabb,
+                        gt,
+                        true,
+                        &mut counts,
+                    );
+                }
+            },
+        );
     }
     let static_rebuilt = trees.rebuild_static_if_dirty();
 

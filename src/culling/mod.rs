@@ -7,7 +7,6 @@
 //! on entities whose leaf straddles a plane, so its results are Bevy's.
 
 mod class_lists;
-mod prefetch;
 mod slot_order;
 mod system;
 mod tree_pass;

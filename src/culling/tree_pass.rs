@@ -2,9 +2,9 @@
 //! test only where a tree could not settle it.
 
 use super::class_lists::ClassLists;
-use super::prefetch::prefetch;
 use super::system::{ViewFilter, bevy_frustum_test};
 use crate::culling::system::CullingStats;
+use crate::prefetch::prefetch;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
