@@ -306,6 +306,8 @@ fn invalid_bounds_are_refused_and_change_nothing() {
         Aabb::new(Vec3A::ONE, Vec3A::ZERO),
         Aabb::EVERYTHING,
         Aabb::EMPTY,
+        // Finite, but its fat box overflows to infinity.
+        Aabb::new(Vec3A::splat(f32::MAX * 0.5), Vec3A::splat(f32::MAX)),
     ] {
         assert_eq!(t.insert(1, bad), Err(DynamicBvhError::InvalidBounds));
         assert_eq!(t.update(h, bad), Err(DynamicBvhError::InvalidBounds));

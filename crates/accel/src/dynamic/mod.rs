@@ -396,26 +396,33 @@ impl DynamicBvh {
 
     /// Records a leaf's new tight bounds. Returns whether its fat box had to change (the
     /// leaf left it, or shrank to well under it); only then is the leaf queued for the next
-    /// [`refit`](Self::refit), so small motions cost one comparison.
+    /// [`refit`](Self::refit), so small motions cost one comparison. Bounds that are not
+    /// finite, or whose fat box would overflow, are refused with
+    /// [`DynamicBvhError::InvalidBounds`] and change nothing.
     pub fn update(&mut self, handle: LeafHandle, bounds: Aabb) -> Result<bool, DynamicBvhError> {
         let leaf = self.check(handle)?;
         if !bounds.is_finite() {
             return Err(DynamicBvhError::InvalidBounds);
         }
-        let previous = core::mem::replace(&mut self.tight[leaf as usize], bounds);
         let fat = self.arena.nodes[leaf as usize].aabb;
         if fat.contains_aabb(&bounds) {
             // A box that shrank to a small part of its fat box would keep the tree loose for
             // ever: refatten once the fat box's area is four times what it needs to be.
             let wanted = self.config.fatten(&bounds);
             if fat.half_area() <= 4.0 * wanted.half_area() + f32::MIN_POSITIVE {
+                self.tight[leaf as usize] = bounds;
                 return Ok(false);
             }
         }
-        let new_fat = self.config.fatten_moving(&previous, &bounds);
+        let new_fat = self
+            .config
+            .fatten_moving(&self.tight[leaf as usize], &bounds);
+        // Refused before anything is written: a finite box near the float range's end can
+        // still fatten to infinity, and the leaf must keep its old, consistent boxes.
         if !new_fat.is_finite() {
             return Err(DynamicBvhError::InvalidBounds);
         }
+        self.tight[leaf as usize] = bounds;
         // A jump clear of the old fat box (a teleport, a respawn) is flagged: the refit
         // reinserts such leaves when they are few (see `refit`).
         let jumped = !fat.intersects_aabb(&new_fat);
