@@ -161,11 +161,12 @@ pub(crate) fn sync_trees(
     }
     // The moved entities are scattered through their tables (only some moved): each one's
     // `GlobalTransform` and `Aabb` rows are asked for a few entities ahead.
-    let rows_ahead = |&(_, aabb, gt, _): &(Entity, &BevyAabb, &GlobalTransform, bool)| {
+    type Moved<'a> = (Entity, &'a BevyAabb, &'a GlobalTransform, bool);
+    let rows_ahead = |&(_, aabb, gt, _): &Moved| {
         prefetch_all(gt);
         prefetch_all(aabb);
     };
-    for_each_prefetched(moved.iter(), rows_ahead, |(entity, aabb, gt, marked)| {
+    let mut place_moved = |(entity, aabb, gt, marked): Moved, is_static: bool| {
         if wanted(marked) {
             place_checked(
                 &mut trees,
@@ -173,31 +174,16 @@ pub(crate) fn sync_trees(
                 entity,
                 aabb,
                 gt,
-                false,
+                is_static,
                 &mut counts,
             );
         }
-    });
+    };
+    for_each_prefetched(moved.iter(), rows_ahead, |m| place_moved(m, false));
     if settings.watch_static_motion {
         // A static entity that moved anyway (an editor, a level change) gets its new box in a
         // rebuilt static tree rather than a stale one.
-        for_each_prefetched(
-            moved_static.iter(),
-            rows_ahead,
-            |(entity, aabb, gt, marked)| {
-                if wanted(marked) {
-                    place_checked(
-                        &mut trees,
-                        &mut rejected,
-                        entity,
-                        aabb,
-                        gt,
-                        true,
-                        &mut counts,
-                    );
-                }
-            },
-        );
+        for_each_prefetched(moved_static.iter(), rows_ahead, |m| place_moved(m, true));
     }
     let static_rebuilt = trees.rebuild_static_if_dirty();
 
