@@ -212,25 +212,32 @@ fn place_checked(
     counts: &mut SyncCounts,
 ) {
     match placement(aabb, gt) {
-        Ok((bounds, frame)) => {
-            // The set is almost always empty: skip hashing every moved entity into it.
-            if !rejected.0.is_empty() && rejected.0.remove(&entity) {
-                info!(
-                    "bevy_accel: entity {entity} has a valid transform again and is back in the trees"
-                );
+        Ok((bounds, frame)) => match trees.place(entity, bounds, frame, is_static) {
+            // Reported like a bad transform: once, until the entity fits again.
+            Placed::Refused(why) => reject(rejected, entity, why),
+            placed => {
+                // The set is almost always empty: skip hashing every moved entity into it.
+                if !rejected.0.is_empty() && rejected.0.remove(&entity) {
+                    info!("bevy_accel: entity {entity} is valid again and back in the trees");
+                }
+                match placed {
+                    Placed::Inserted => counts.inserted += 1,
+                    Placed::Moved => counts.updated += 1,
+                    Placed::Unchanged | Placed::Refused(_) => {}
+                }
             }
-            match trees.place(entity, bounds, frame, is_static) {
-                Placed::Inserted => counts.inserted += 1,
-                Placed::Moved => counts.updated += 1,
-                Placed::Unchanged | Placed::Refused => {}
-            }
-        }
+        },
         Err(why) => {
             counts.removed += trees.remove(entity) as usize;
-            if rejected.0.insert(entity) {
-                warn!("bevy_accel: entity {entity} is left out of the trees: {why}");
-            }
+            reject(rejected, entity, why);
         }
+    }
+}
+
+/// Adds an entity to the rejected set, warning the first time.
+fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
+    if rejected.0.insert(entity) {
+        warn!("bevy_accel: entity {entity} is left out of the trees: {why}");
     }
 }
 

@@ -1,6 +1,6 @@
 //! The trees over the world's entities, and the map between tree slots and entities.
 
-use accel::dynamic::{DynamicBvh, LeafHandle, StaticDynamicPair};
+use accel::dynamic::{DynamicBvh, DynamicBvhError, LeafHandle, StaticDynamicPair};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::math::Affine3A;
 use bevy::prelude::*;
@@ -79,8 +79,20 @@ pub(crate) enum Placed {
     Moved,
     /// Nothing a query can see changed (the move stayed inside the leaf's fat box).
     Unchanged,
-    /// The dynamic tree refused the entity (an error was logged); it stays untracked.
-    Refused,
+    /// The dynamic tree refused the entity's box, for the reason given; it is untracked now
+    /// (taken out if it was in), and the caller reports it.
+    Refused(&'static str),
+}
+
+/// Why the dynamic tree refused an entity, as the warning about it says.
+fn refusal(e: DynamicBvhError) -> &'static str {
+    match e {
+        DynamicBvhError::InvalidBounds => {
+            "its bounds are too close to the end of the float range for the dynamic tree"
+        }
+        DynamicBvhError::CapacityExceeded => "the dynamic tree is full",
+        DynamicBvhError::StaleHandle => "the dynamic tree lost its leaf",
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -249,9 +261,14 @@ impl AccelTrees {
                     match self.pair.dynamic_mut().update(h, bounds) {
                         Ok(true) => Placed::Moved,
                         Ok(false) => Placed::Unchanged,
+                        Err(DynamicBvhError::InvalidBounds) => {
+                            // Finite, but its fat box would overflow: no tree can hold it.
+                            self.remove(entity);
+                            Placed::Refused(refusal(DynamicBvhError::InvalidBounds))
+                        }
                         Err(e) => {
-                            // Cannot happen while handles and boxes are checked on the way in;
-                            // if it does, re-inserting keeps the entity in the tree.
+                            // Cannot happen while handles are kept with their slots; if it
+                            // does, re-inserting keeps the entity in the tree.
                             error!("bevy_accel: updating {entity} failed ({e}); re-inserting it");
                             self.remove(entity);
                             moved(self.place(entity, bounds, frame, false))
@@ -296,9 +313,8 @@ impl AccelTrees {
                     match self.pair.dynamic_mut().insert(slot, bounds) {
                         Ok(handle) => TreeSlot::Dynamic(handle),
                         Err(e) => {
-                            error!("bevy_accel: {entity} could not enter the dynamic tree: {e}");
                             self.release_slot(slot);
-                            return Placed::Refused;
+                            return Placed::Refused(refusal(e));
                         }
                     }
                 };

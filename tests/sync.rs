@@ -237,6 +237,38 @@ fn bad_transforms_stay_out_until_valid_again() {
 }
 
 #[test]
+fn bounds_the_tree_cannot_hold_stay_out_until_they_fit_again() {
+    // A finite box so close to the float range's end that its fat box overflows: the
+    // transform is valid, the dynamic tree refuses the box. The entity is reported like a bad
+    // transform (counted once among the rejected, however often it moves) and comes back
+    // once its box fits.
+    let mut app = app();
+    let far = Transform::from_xyz(3.0e38, 0.0, 0.0).with_scale(Vec3::new(7.6e37, 1.0, 1.0));
+    let e = app.world_mut().spawn((far, unit_aabb())).id();
+    app.update();
+    for frame in 0..3 {
+        let trees = app.world().resource::<AccelTrees>();
+        assert!(!trees.contains(e), "frame {frame}");
+        assert_eq!(
+            app.world().resource::<AccelStats>().rejected,
+            1,
+            "frame {frame}"
+        );
+        app.world_mut()
+            .get_mut::<Transform>(e)
+            .unwrap()
+            .translation
+            .y += 1.0;
+        app.update();
+    }
+    *app.world_mut().get_mut::<Transform>(e).unwrap() = Transform::from_xyz(1.0, 2.0, 3.0);
+    app.update();
+    assert!(app.world().resource::<AccelTrees>().contains(e));
+    assert_eq!(app.world().resource::<AccelStats>().rejected, 0);
+    check_consistency(&mut app);
+}
+
+#[test]
 fn a_frame_with_no_changes_does_no_tree_work() {
     let mut app = app();
     for i in 0..1000 {
