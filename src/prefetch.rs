@@ -61,3 +61,33 @@ pub(crate) fn for_each_prefetched<T>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn items_are_processed_once_each_in_order_whatever_the_count() {
+        for n in 0..3 * LOOKAHEAD as u32 {
+            let mut asked = Vec::new();
+            let mut seen = Vec::new();
+            let asked_cell = core::cell::RefCell::new(&mut asked);
+            for_each_prefetched(
+                0..n,
+                |&i| asked_cell.borrow_mut().push(i),
+                |i| {
+                    // An item is processed only after the items LOOKAHEAD places later were
+                    // asked for (or all of them, near the end).
+                    let asked_so_far = asked_cell.borrow().len() as u32;
+                    assert!(
+                        asked_so_far >= (i + 1 + LOOKAHEAD as u32).min(n),
+                        "n {n}, item {i}"
+                    );
+                    seen.push(i);
+                },
+            );
+            assert_eq!(seen, (0..n).collect::<Vec<_>>());
+            assert_eq!(asked, (0..n).collect::<Vec<_>>());
+        }
+    }
+}
