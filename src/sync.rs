@@ -215,6 +215,10 @@ fn place_checked(
         Ok((bounds, frame)) => match trees.place(entity, bounds, frame, is_static) {
             // Reported like a bad transform: once, until the entity fits again.
             Placed::Refused(why) => reject(rejected, entity, why),
+            Placed::Evicted(why) => {
+                counts.removed += 1;
+                reject(rejected, entity, why);
+            }
             placed => {
                 // The set is almost always empty: skip hashing every moved entity into it.
                 if !rejected.0.is_empty() && rejected.0.remove(&entity) {
@@ -223,7 +227,7 @@ fn place_checked(
                 match placed {
                     Placed::Inserted => counts.inserted += 1,
                     Placed::Moved => counts.updated += 1,
-                    Placed::Unchanged | Placed::Refused(_) => {}
+                    Placed::Unchanged | Placed::Refused(_) | Placed::Evicted(_) => {}
                 }
             }
         },

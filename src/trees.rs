@@ -79,9 +79,12 @@ pub(crate) enum Placed {
     Moved,
     /// Nothing a query can see changed (the move stayed inside the leaf's fat box).
     Unchanged,
-    /// The dynamic tree refused the entity's box, for the reason given; it is untracked now
-    /// (taken out if it was in), and the caller reports it.
+    /// The dynamic tree refused a new entity's box, for the reason given; it stays untracked,
+    /// and the caller reports it.
     Refused(&'static str),
+    /// The dynamic tree refused a tracked entity's new box, for the reason given; it was taken
+    /// out, and the caller reports it.
+    Evicted(&'static str),
 }
 
 /// Why the dynamic tree refused an entity, as the warning about it says.
@@ -264,7 +267,7 @@ impl AccelTrees {
                         Err(DynamicBvhError::InvalidBounds) => {
                             // Finite, but its fat box would overflow: no tree can hold it.
                             self.remove(entity);
-                            Placed::Refused(refusal(DynamicBvhError::InvalidBounds))
+                            Placed::Evicted(refusal(DynamicBvhError::InvalidBounds))
                         }
                         Err(e) => {
                             // Cannot happen while handles are kept with their slots; if it

@@ -266,6 +266,17 @@ fn bounds_the_tree_cannot_hold_stay_out_until_they_fit_again() {
     assert!(app.world().resource::<AccelTrees>().contains(e));
     assert_eq!(app.world().resource::<AccelStats>().rejected, 0);
     check_consistency(&mut app);
+    // A tracked entity moving out of range is taken out, counted as removed and rejected.
+    *app.world_mut().get_mut::<Transform>(e).unwrap() = far;
+    app.update();
+    assert!(!app.world().resource::<AccelTrees>().contains(e));
+    let stats = app.world().resource::<AccelStats>();
+    assert_eq!((stats.removed, stats.rejected), (1, 1));
+    app.world()
+        .resource::<AccelTrees>()
+        .dynamic()
+        .validate()
+        .unwrap();
 }
 
 #[test]
