@@ -33,31 +33,51 @@ fn prefetch_address(address: *const i8) {
     let _ = address;
 }
 
-/// How many items ahead [`for_each_prefetched`] asks for an item's data: a few items'
+/// The distance between the stages of [`for_each_prefetched_in_two_stages`]: a few items'
 /// processing covers one memory latency, and a larger window only holds more lines in L1.
 const LOOKAHEAD: usize = 8;
 
-/// Runs `process` over `items` in order, calling `ahead` on each item [`LOOKAHEAD`] items
-/// before `process` reaches it, so the rows an item's processing reads (scattered through
-/// Bevy's tables when only some entities changed) arrive while earlier items are processed.
-pub(crate) fn for_each_prefetched<T>(
+/// Runs `process` over `items` in order, with two prefetch stages ahead of it for data found
+/// through other data (the items are scattered through Bevy's tables when only some entities
+/// changed, and each one's rows lead to more scattered reads): `far` runs on each item
+/// `2 * LOOKAHEAD` items before `process` reaches it (the item's own rows, the
+/// record that leads to its tree slot), `near` runs [`LOOKAHEAD`] items before (what that
+/// record leads to: the slot's entries and tree node). The stages share `state`, which only
+/// `process` may change.
+pub(crate) fn for_each_prefetched_in_two_stages<S, T>(
     items: impl Iterator<Item = T>,
-    ahead: impl Fn(&T),
-    mut process: impl FnMut(T),
+    state: &mut S,
+    far: impl Fn(&S, &T),
+    near: impl Fn(&S, &T),
+    mut process: impl FnMut(&mut S, T),
 ) {
-    let mut window: [Option<T>; LOOKAHEAD] = [const { None }; LOOKAHEAD];
+    const WINDOW: usize = 2 * LOOKAHEAD;
+    let mut window: [Option<T>; WINDOW] = [const { None }; WINDOW];
     let mut count = 0usize;
     for item in items {
-        ahead(&item);
-        if let Some(due) = window[count % LOOKAHEAD].replace(item) {
-            process(due);
+        far(state, &item);
+        // The slot the new item takes holds the item `WINDOW` places before it: now due.
+        if let Some(due) = window[count % WINDOW].replace(item) {
+            process(state, due);
+        }
+        if count >= LOOKAHEAD
+            && let Some(halfway) = &window[(count - LOOKAHEAD) % WINDOW]
+        {
+            near(state, halfway);
         }
         count += 1;
     }
-    // What is left is the last items, the oldest at `count % LOOKAHEAD`.
-    for k in 0..LOOKAHEAD {
-        if let Some(due) = window[(count + k) % LOOKAHEAD].take() {
-            process(due);
+    // Left: the last `min(count, WINDOW)` items; those among the last `LOOKAHEAD` have not had
+    // their `near` stage yet.
+    let first = count.saturating_sub(WINDOW);
+    for i in count.saturating_sub(LOOKAHEAD).max(first)..count {
+        if let Some(item) = &window[i % WINDOW] {
+            near(state, item);
+        }
+    }
+    for i in first..count {
+        if let Some(due) = window[i % WINDOW].take() {
+            process(state, due);
         }
     }
 }
@@ -67,27 +87,42 @@ mod tests {
     use super::*;
 
     #[test]
-    fn items_are_processed_once_each_in_order_whatever_the_count() {
-        for n in 0..3 * LOOKAHEAD as u32 {
-            let mut asked = Vec::new();
-            let mut seen = Vec::new();
-            let asked_cell = core::cell::RefCell::new(&mut asked);
-            for_each_prefetched(
+    fn two_stages_run_once_each_in_order_and_ahead_of_processing() {
+        let l = LOOKAHEAD as u32;
+        for n in 0..5 * l {
+            let far = core::cell::RefCell::new(Vec::new());
+            let near = core::cell::RefCell::new(Vec::new());
+            let mut processed: Vec<u32> = Vec::new();
+            for_each_prefetched_in_two_stages(
                 0..n,
-                |&i| asked_cell.borrow_mut().push(i),
-                |i| {
-                    // An item is processed only after the items LOOKAHEAD places later were
-                    // asked for (or all of them, near the end).
-                    let asked_so_far = asked_cell.borrow().len() as u32;
-                    assert!(
-                        asked_so_far >= (i + 1 + LOOKAHEAD as u32).min(n),
+                &mut processed,
+                |_, &i| far.borrow_mut().push(i),
+                |processed: &Vec<u32>, &i| {
+                    // `near` follows `far` by LOOKAHEAD items and leads processing by as many;
+                    // the last LOOKAHEAD items get it before the tail is processed.
+                    assert_eq!(
+                        far.borrow().len() as u32,
+                        (i + 1 + l).min(n),
                         "n {n}, item {i}"
                     );
-                    seen.push(i);
+                    let expected_done = if i + l < n {
+                        (i + 1).saturating_sub(l)
+                    } else {
+                        n.saturating_sub(2 * l)
+                    };
+                    assert_eq!(processed.len() as u32, expected_done, "n {n}, item {i}");
+                    near.borrow_mut().push(i);
+                },
+                |processed, i| {
+                    assert!(near.borrow().contains(&i), "n {n}, item {i}");
+                    let far_so_far = far.borrow().len() as u32;
+                    assert_eq!(far_so_far, (i + 1 + 2 * l).min(n), "n {n}, item {i}");
+                    processed.push(i);
                 },
             );
-            assert_eq!(seen, (0..n).collect::<Vec<_>>());
-            assert_eq!(asked, (0..n).collect::<Vec<_>>());
+            assert_eq!(*far.borrow(), (0..n).collect::<Vec<_>>());
+            assert_eq!(*near.borrow(), (0..n).collect::<Vec<_>>());
+            assert_eq!(processed, (0..n).collect::<Vec<_>>());
         }
     }
 }

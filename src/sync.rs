@@ -6,7 +6,7 @@
 //! no static entity and touches no tree.
 
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
-use crate::prefetch::{for_each_prefetched, prefetch_all};
+use crate::prefetch::{for_each_prefetched_in_two_stages, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::{AccelTrees, LocalFrame, Placed};
@@ -160,30 +160,47 @@ pub(crate) fn sync_trees(
         }
     }
     // The moved entities are scattered through their tables (only some moved): each one's
-    // `GlobalTransform` and `Aabb` rows are asked for a few entities ahead.
+    // `GlobalTransform` and `Aabb` rows are asked for well ahead, and once those are on their
+    // way, its slot and tree leaf (found through the entity) a few entities ahead.
     type Moved<'a> = (Entity, &'a BevyAabb, &'a GlobalTransform, bool);
-    let rows_ahead = |&(_, aabb, gt, _): &Moved| {
+    type State<'a> = (
+        &'a mut AccelTrees,
+        &'a mut RejectedEntities,
+        &'a mut SyncCounts,
+    );
+    let rows_ahead = |state: &State, &(entity, aabb, gt, _): &Moved| {
         prefetch_all(gt);
         prefetch_all(aabb);
+        state.0.prefetch_record(entity);
     };
-    let mut place_moved = |(entity, aabb, gt, marked): Moved, is_static: bool| {
-        if wanted(marked) {
-            place_checked(
-                &mut trees,
-                &mut rejected,
-                entity,
-                aabb,
-                gt,
-                is_static,
-                &mut counts,
-            );
+    let slot_ahead = |state: &State, &(entity, ..): &Moved| {
+        state.0.prefetch_placement(entity);
+    };
+    let place_moved = |is_static: bool| {
+        move |(trees, rejected, counts): &mut State, (entity, aabb, gt, marked): Moved| {
+            if wanted(marked) {
+                place_checked(trees, rejected, entity, aabb, gt, is_static, counts);
+            }
         }
     };
-    for_each_prefetched(moved.iter(), rows_ahead, |m| place_moved(m, false));
+    let mut state = (&mut *trees, &mut *rejected, &mut counts);
+    for_each_prefetched_in_two_stages(
+        moved.iter(),
+        &mut state,
+        rows_ahead,
+        slot_ahead,
+        place_moved(false),
+    );
     if settings.watch_static_motion {
         // A static entity that moved anyway (an editor, a level change) gets its new box in a
         // rebuilt static tree rather than a stale one.
-        for_each_prefetched(moved_static.iter(), rows_ahead, |m| place_moved(m, true));
+        for_each_prefetched_in_two_stages(
+            moved_static.iter(),
+            &mut state,
+            rows_ahead,
+            slot_ahead,
+            place_moved(true),
+        );
     }
     let static_rebuilt = trees.rebuild_static_if_dirty();
 
