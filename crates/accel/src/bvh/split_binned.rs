@@ -59,7 +59,7 @@ fn split_with<const B: usize>(
     for p in prims.iter() {
         // Truncate all three coordinates at once and index plain arrays: indexing `Vec3A` by
         // a run-time axis is a `match`, which dominated this loop.
-        let b = bin_of(p.centroid).as_uvec3().to_array();
+        let b = bin_indices(bin_of(p.centroid));
         for axis in 0..3 {
             let i = b[axis] as usize;
             bin_bounds[axis][i] = bin_bounds[axis][i].union(&p.bounds);
@@ -112,11 +112,36 @@ fn split_with<const B: usize>(
             return SplitOutcome::Leaf;
         }
     }
-    let (o, sc, l) = (origin[axis], scale[axis], last[axis]);
-    let mid = partition(prims, |p| {
-        let c = p.centroid.to_array()[axis];
-        (((c - o) * sc).min(l).max(0.0) as usize) <= plane
-    });
+    // The binning put a primitive in bin `floor(clamp(v, 0, bins - 1))` with
+    // `v = (c - o) * sc`; it is in a bin at or left of `plane` (at most `bins - 2`) exactly when
+    // `v < plane + 1`. Comparing floats skips a saturating float-to-integer conversion per
+    // primitive, a few branches each.
+    let (o, sc, limit) = (origin[axis], scale[axis], (plane + 1) as f32);
+    let mid = partition(prims, |p| (p.centroid.to_array()[axis] - o) * sc < limit);
     debug_assert!(mid > 0 && mid < prims.len());
     SplitOutcome::Split(mid)
+}
+
+/// The bins of a centroid on the three axes, from its bin coordinates (already clamped to
+/// `0..=bins - 1`): truncated toward zero, as the sweep's planes assume.
+///
+/// One SIMD conversion for the three axes: glam's `as_uvec3` converts lane by lane with
+/// Rust's saturating casts, a few instructions and branches each, in the build's hottest
+/// loop.
+#[inline(always)]
+fn bin_indices(coordinates: Vec3A) -> [u32; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{__m128, __m128i, _mm_cvttps_epi32};
+        // SAFETY: SSE2 is part of the x86-64 baseline; the lanes are in `0..=bins - 1`, so the
+        // conversion is exact truncation (the fourth lane is never read).
+        let lanes: [i32; 4] = unsafe {
+            core::mem::transmute::<__m128i, [i32; 4]>(_mm_cvttps_epi32(__m128::from(coordinates)))
+        };
+        [lanes[0] as u32, lanes[1] as u32, lanes[2] as u32]
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        coordinates.as_uvec3().to_array()
+    }
 }
