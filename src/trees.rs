@@ -55,19 +55,25 @@ fn entity_tree_config() -> BuildConfig {
     }
 }
 
-/// What a query callback needs of a slot, side by side: a candidate's exact box is tested
-/// first and its entity read only if that passes, so both sharing a cache line saves a miss
-/// per candidate (two parallel arrays cost two).
+/// What the sync writes for a slot each time its entity moves, and what a ray's candidate
+/// reads once its exact box is hit: the box, then the entity's own space.
+///
+/// One record of exactly two cache lines, aligned to them. Why: the sync writes both parts
+/// for every moved entity, and as two arrays (a 48-byte box-and-entity entry, a 96-byte
+/// frame) they spanned four lines on average, each a miss at a scattered slot; a ray's
+/// candidate reads the box on the first line and the frame mostly on the second. The entity
+/// itself is read from the packed [`AccelTrees::slot_entities`] array.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct SlotEntry {
     bounds: Aabb,
-    entity: Option<Entity>,
+    frame: LocalFrame,
 }
 
 impl SlotEntry {
     const FREE: Self = Self {
         bounds: Aabb::EMPTY,
-        entity: None,
+        frame: LocalFrame::NONE,
     };
 }
 
@@ -129,10 +135,9 @@ pub struct AccelTrees {
     /// (the sync bench's lookups stalled on each in turn).
     tracked_by_index: Vec<Option<Tracked>>,
     tracked_count: usize,
+    /// Each slot's exact world box and own space (see [`LocalFrame`]).
     slots: Vec<SlotEntry>,
-    /// The entity's own space, by slot: see [`LocalFrame`].
-    frames: Vec<LocalFrame>,
-    /// The entity of each slot again, packed: see [`AccelTrees::slot_entities`].
+    /// The entity of each slot, packed: see [`AccelTrees::slot_entities`].
     entities_by_slot: Vec<Option<Entity>>,
     free_slots: Vec<u32>,
     /// Static boxes by slot (empty for slots that are not static), the static tree's input.
@@ -159,7 +164,7 @@ impl AccelTrees {
     /// The entity in a slot, if the slot is in use.
     #[inline]
     pub fn entity(&self, slot: u32) -> Option<Entity> {
-        self.slots.get(slot as usize).and_then(|s| s.entity)
+        self.entities_by_slot.get(slot as usize).copied().flatten()
     }
 
     /// The exact world box of the entity in a slot (the trees hold fattened boxes).
@@ -199,12 +204,11 @@ impl AccelTrees {
     /// The entity's own space in a slot (meaningless for a free slot).
     #[inline]
     pub fn local_frame(&self, slot: u32) -> Option<&LocalFrame> {
-        self.frames.get(slot as usize)
+        self.slots.get(slot as usize).map(|s| &s.frame)
     }
 
     /// The entity in each slot, indexed by slot (`None` for free slots): for passes over many
-    /// slots in order, where this array's 8 bytes per slot touch a quarter of the cache lines
-    /// that [`AccelTrees::entity`]'s entries do.
+    /// slots in order, 8 bytes per slot.
     pub fn slot_entities(&self) -> &[Option<Entity>] {
         &self.entities_by_slot
     }
@@ -222,18 +226,13 @@ impl AccelTrees {
     }
 
     fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
-        let entry = SlotEntry {
-            bounds,
-            entity: Some(entity),
-        };
+        let entry = SlotEntry { bounds, frame };
         if let Some(slot) = self.free_slots.pop() {
             self.slots[slot as usize] = entry;
-            self.frames[slot as usize] = frame;
             self.entities_by_slot[slot as usize] = Some(entity);
             slot
         } else {
             self.slots.push(entry);
-            self.frames.push(frame);
             self.entities_by_slot.push(Some(entity));
             self.static_bounds.push(Aabb::EMPTY);
             (self.slots.len() - 1) as u32
@@ -256,8 +255,7 @@ impl AccelTrees {
         match self.tracked(entity) {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
-                    self.slots[t.slot as usize].bounds = bounds;
-                    self.frames[t.slot as usize] = frame;
+                    self.slots[t.slot as usize] = SlotEntry { bounds, frame };
                     match self.pair.dynamic_mut().update(h, bounds) {
                         Ok(true) => Placed::Moved,
                         Ok(false) => Placed::Unchanged,
@@ -276,7 +274,7 @@ impl AccelTrees {
                     }
                 }
                 (TreeSlot::Static, true) => {
-                    self.frames[t.slot as usize] = frame;
+                    self.slots[t.slot as usize].frame = frame;
                     // Static entities are placed only when (re)marked; a changed box means
                     // rebuilding the static tree.
                     if self.static_bounds[t.slot as usize] != bounds {
@@ -350,7 +348,6 @@ impl AccelTrees {
         };
         let slot = t.slot as usize;
         prefetch_all(&self.slots[slot]);
-        prefetch_all(&self.frames[slot]);
         if let TreeSlot::Dynamic(handle) = t.tree {
             self.pair.dynamic().prefetch_leaf(handle);
         }
@@ -380,7 +377,6 @@ impl AccelTrees {
 
     fn release_slot(&mut self, slot: u32) {
         self.slots[slot as usize] = SlotEntry::FREE;
-        self.frames[slot as usize] = LocalFrame::NONE;
         self.entities_by_slot[slot as usize] = None;
         self.free_slots.push(slot);
     }
