@@ -15,8 +15,16 @@ pub(crate) fn prefetch<T>(value: &T) {
 pub(crate) fn prefetch_all<T>(value: &T) {
     let start = (value as *const T).cast::<i8>();
     let size = core::mem::size_of::<T>();
-    // Every 64th byte, and the last: together they touch each line the value spans.
-    for offset in (0..size).step_by(64).chain(size.checked_sub(1)) {
+    // Every 64th byte, and the last: together they touch each line the value spans. A value of
+    // whole lines aligned to them (the slot record) needs no last-byte hint; decided at
+    // compile time.
+    let whole_lines = size.is_multiple_of(64) && core::mem::align_of::<T>() >= 64;
+    let last = if whole_lines {
+        None
+    } else {
+        size.checked_sub(1)
+    };
+    for offset in (0..size).step_by(64).chain(last) {
         prefetch_address(start.wrapping_add(offset));
     }
 }
