@@ -334,13 +334,14 @@ impl AccelTrees {
     }
 
     /// Asks for what [`place`](Self::place) of a tracked entity writes and reads at scattered
-    /// places: its slot's entries and its dynamic leaf. A hint only.
+    /// places: its slot record and its dynamic leaf. A hint only.
     ///
     /// Why: after a rebuild or the optimiser's reinsertions, a leaf's place in the dynamic
     /// tree's arena no longer follows the entity order in which the sync visits movers, so
     /// each update waited on a leaf node and its tight box (perf and phase timers on the sync
-    /// bench: about 200 ns per moved entity, half the sync). The slot arrays themselves are
-    /// read nearly in order.
+    /// bench: about 200 ns per moved entity, half the sync). The slot record comes after the
+    /// per-entity record in a chain of dependent reads, so it is asked for here, once that
+    /// record (asked for earlier by [`prefetch_record`](Self::prefetch_record)) has arrived.
     #[inline]
     pub(crate) fn prefetch_placement(&self, entity: Entity) {
         let Some(t) = self.tracked(entity) else {
