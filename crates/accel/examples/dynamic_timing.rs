@@ -10,13 +10,14 @@
 //! - the machine's floor: what one 64-byte line costs over an array the size of the tree's
 //!   arena, read in order, at random with a prefetch, and in a chain of dependent loads.
 //!
-//! `cargo run --release -p accel --example dynamic_timing`. Medians over the rounds: this
+//! `cargo run --release -p accel --example dynamic_timing` (add `--features rayon` for the
+//! parallel whole-tree refit beside the one-thread one). Medians over the rounds: this
 //! machine's noise moves single rounds by tens of percent.
 
 #[path = "../benches/common/dynamic_workload.rs"]
 mod dynamic_workload;
 
-use accel::Aabb;
+use accel::{Aabb, DynamicBvhConfig};
 use dynamic_workload::{Rng, built_tree as tree, scene};
 use glam::Vec3A;
 use std::time::{Duration, Instant};
@@ -29,8 +30,13 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Every leaf moved by 0 or 1 unit in turn, `rounds` times: (update, refit) ns per leaf.
-fn all_moved(boxes: &[Aabb], invalidate: bool, rounds: usize) -> (f64, f64) {
+/// `parallel` sets [`DynamicBvhConfig::parallel_refit`] (which needs the `rayon` feature).
+fn all_moved(boxes: &[Aabb], invalidate: bool, rounds: usize, parallel: bool) -> (f64, f64) {
     let (mut t, hs) = tree(boxes);
+    t.set_config(DynamicBvhConfig {
+        parallel_refit: parallel,
+        ..*t.config()
+    });
     let (mut updates, mut refits) = (Vec::new(), Vec::new());
     for round in 0..rounds + 2 {
         let d = Vec3A::splat((round % 2) as f32);
@@ -126,11 +132,23 @@ fn main() {
         assert_eq!(depth, height);
         println!("depth {depth}: stats() walk {walk:?}, height() {read:?}");
     }
-    let (u, r) = all_moved(&boxes, false, 40);
+    let (u, r) = all_moved(&boxes, false, 40, false);
     println!(
         "all moved, schedule compiled: update {u:.1} ns/leaf, whole-tree refit {r:.1} ns/leaf"
     );
-    let (u, r) = all_moved(&boxes, true, 20);
+    // With `--features rayon`: the same refit on rayon's pool, alternated with the one-thread
+    // refit so both see the same phases of a noisy machine.
+    #[cfg(feature = "rayon")]
+    for _ in 0..3 {
+        let (_, parallel) = all_moved(&boxes, false, 40, true);
+        let (_, serial) = all_moved(&boxes, false, 40, false);
+        println!(
+            "all moved, schedule compiled, whole-tree refit on {} threads: {parallel:.1} ns/leaf \
+             (one thread, next: {serial:.1} ns/leaf)",
+            rayon::current_num_threads()
+        );
+    }
+    let (u, r) = all_moved(&boxes, true, 20, false);
     println!(
         "all moved, schedule invalidated: update {u:.1} ns/leaf, whole-tree refit {r:.1} ns/leaf"
     );

@@ -164,6 +164,15 @@ pub struct DynamicBvhConfig {
     pub min_leaves_for_rebuild: usize,
     /// The SAH cost model for the quality monitor and the optimiser.
     pub sah: SahCosts,
+    /// Run the whole-tree refit (the refit of a frame in which most leaves moved) on rayon's
+    /// pool, level by level, the wide levels in chunks. The result is the same bits as on one
+    /// thread. Needs the cargo feature `rayon`; without it this is ignored.
+    ///
+    /// Off by default: on the two-vCPU benchmark VM the parallel replay measured slower than
+    /// one thread (55-115 against 43-55 ns per leaf at 100k leaves, `dynamic_timing
+    /// --features rayon`), the replay being bound by memory bandwidth the vCPUs share. Worth
+    /// measuring on a machine with more cores and memory channels.
+    pub parallel_refit: bool,
 }
 
 impl Default for DynamicBvhConfig {
@@ -179,6 +188,7 @@ impl Default for DynamicBvhConfig {
             background_rebuild: false,
             min_leaves_for_rebuild: 256,
             sah: SahCosts::default(),
+            parallel_refit: false,
         }
     }
 }

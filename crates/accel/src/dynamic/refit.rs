@@ -146,9 +146,12 @@ impl DynamicBvh {
             if root.is_leaf() {
                 root.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
             } else {
-                self.internal_area =
-                    self.schedule
-                        .replay(&mut self.arena.nodes, self.root, &mut order);
+                self.internal_area = self.schedule.replay(
+                    &mut self.arena.nodes,
+                    self.root,
+                    &mut order,
+                    self.config.parallel_refit,
+                );
             }
         }
         let touched = order.len();

@@ -18,6 +18,12 @@
 //!   and the internal nodes' own boxes are scattered, and those are prefetched some entries
 //!   ahead, being known from the schedule without reading the tree.
 //!
+//! - **In parallel** (cargo feature `rayon`): compilation also records where each
+//!   breadth-first level starts. Entries of one level never depend on each other (their
+//!   children are a level deeper), so a large level is cut into fixed chunks replayed on
+//!   rayon's pool, deepest level first. The chunks are the same on one thread, and their
+//!   area sums are added in chunk order either way, so both replays give the same bits.
+//!
 //! Any edit of links (insertion, removal, rotation, reinsertion, rebuild) invalidates the
 //! schedule; the next whole-tree refit compiles it again. A frame whose motion only refits
 //! (the common case for a crowd that keeps moving) replays it as is.
@@ -39,6 +45,14 @@ const PREFETCH_DISTANCE: usize = 12;
 /// look further ahead than the replay to cover a memory latency (~200 ns on the VM).
 const COMPILE_PREFETCH_DISTANCE: usize = 48;
 
+/// Entries per chunk of a level: each chunk is one task on the pool, and the unit the area
+/// sum is added in.
+const CHUNK: usize = 2048;
+
+/// A level is replayed in parallel from this many chunks up (a level of one chunk has
+/// nothing to share).
+const PARALLEL_MIN_CHUNKS: usize = 2;
+
 /// The compiled shape of a [`super::DynamicBvh`] and the scratch its replay uses.
 #[derive(Debug, Default)]
 pub(super) struct RefitSchedule {
@@ -47,6 +61,8 @@ pub(super) struct RefitSchedule {
     /// For each entry of `internal`, its two children: an entry index, or a leaf's arena slot
     /// tagged with [`LEAF_CHILD`].
     children: Vec<[u32; 2]>,
+    /// Where each breadth-first level starts in `internal` (the root's level first).
+    levels: Vec<u32>,
     /// Whether `internal` and `children` describe the tree's current links.
     valid: bool,
     /// Compilation's queue: (arena index, parent entry, child slot).
@@ -88,9 +104,17 @@ impl RefitSchedule {
         self.internal.clear();
         self.children.clear();
         self.queue.clear();
+        self.levels.clear();
         self.queue.push((root, NULL, 0));
         let mut k = 0;
+        // The queue holds whole levels one after another: the current level ends where the
+        // queue ended when its first node was taken.
+        let mut level_end = 0;
         while k < self.queue.len() {
+            if k == level_end {
+                self.levels.push(self.internal.len() as u32);
+                level_end = self.queue.len();
+            }
             // The queue names its nodes long before they are read: ask for the one a fixed
             // distance ahead. (Asking when a node is queued, a whole level ahead, fetched
             // megabytes early at the wide levels, and the lines were evicted before use.)
@@ -127,51 +151,37 @@ impl RefitSchedule {
 
     /// Recomputes every internal node below `root` (an internal node) from its children,
     /// clears the leaves' dirty flags, and appends the internal nodes, children before
-    /// parents, to `order`. Compiles first if the shape changed since the last replay.
-    /// Returns the sum of the internal nodes' half areas.
-    pub fn replay(&mut self, nodes: &mut [Node], root: u32, order: &mut Vec<u32>) -> f64 {
+    /// parents, to `order`. Compiles first if the shape changed since the last replay. With
+    /// `parallel` (and the `rayon` feature), large levels run on rayon's pool; the result is
+    /// the same bits either way. Returns the sum of the internal nodes' half areas.
+    pub fn replay(
+        &mut self,
+        nodes: &mut [Node],
+        root: u32,
+        order: &mut Vec<u32>,
+        parallel: bool,
+    ) -> f64 {
         if !self.valid {
             self.compile(nodes, root);
         }
         let m = self.internal.len();
         self.boxes.resize(m, Aabb::EMPTY);
         self.heights.resize(m, 0);
+        let shared = SharedReplay {
+            nodes: nodes.as_mut_ptr(),
+            node_count: nodes.len(),
+            boxes: self.boxes.as_mut_ptr(),
+            heights: self.heights.as_mut_ptr(),
+            internal: &self.internal,
+            children: &self.children,
+        };
         let mut internal_area = 0.0f64;
-        order.reserve(m);
-        for e in (0..m).rev() {
-            if let Some(ahead) = e.checked_sub(PREFETCH_DISTANCE) {
-                prefetch_node(&nodes[self.internal[ahead] as usize]);
-                for c in self.children[ahead] {
-                    if c & LEAF_CHILD != 0 {
-                        prefetch_node(&nodes[(c & !LEAF_CHILD) as usize]);
-                    }
-                }
-            }
-            let mut child = |c: u32| -> (Aabb, u32) {
-                if c & LEAF_CHILD != 0 {
-                    let leaf = &mut nodes[(c & !LEAF_CHILD) as usize];
-                    if leaf.flags & (FLAG_DIRTY | FLAG_JUMPED) != 0 {
-                        leaf.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
-                    }
-                    (leaf.aabb, 0)
-                } else {
-                    (self.boxes[c as usize], self.heights[c as usize])
-                }
-            };
-            let [a, b] = self.children[e];
-            let (box_a, height_a) = child(a);
-            let (box_b, height_b) = child(b);
-            let aabb = box_a.union(&box_b);
-            let height = 1 + height_a.max(height_b);
-            self.boxes[e] = aabb;
-            self.heights[e] = height;
-            let i = self.internal[e];
-            let n = &mut nodes[i as usize];
-            n.aabb = aabb;
-            n.height = height;
-            internal_area += f64::from(aabb.half_area());
-            order.push(i);
+        for (level, &start) in self.levels.iter().enumerate().rev() {
+            let end = self.levels.get(level + 1).map_or(m, |&e| e as usize);
+            internal_area += shared.replay_level(start as usize..end, parallel);
         }
+        order.reserve(m);
+        order.extend(self.internal.iter().rev());
         internal_area
     }
 
@@ -182,5 +192,182 @@ impl RefitSchedule {
             + self.queue.capacity() * 12
             + self.boxes.capacity() * core::mem::size_of::<Aabb>()
             + self.heights.capacity() * 4
+            + self.levels.capacity() * 4
+    }
+}
+
+/// What one replay shares between the tasks of a level: raw pointers to the arena and the
+/// scratch, because tasks write disjoint entries of both at once.
+///
+/// Why this is sound: within a level, entry `e` writes only `boxes[e]`, `heights[e]`, its own
+/// arena node and the flags of its leaf children (a leaf has one parent), and reads only
+/// entries of the level below, which no task of this level writes. Levels run one after
+/// another.
+struct SharedReplay<'a> {
+    nodes: *mut Node,
+    node_count: usize,
+    boxes: *mut Aabb,
+    heights: *mut u32,
+    internal: &'a [u32],
+    children: &'a [[u32; 2]],
+}
+
+// SAFETY: see the type's documentation: tasks touch disjoint elements.
+unsafe impl Sync for SharedReplay<'_> {}
+
+impl SharedReplay<'_> {
+    /// Replays the entries in `range` (one level), in fixed chunks; returns their half-area
+    /// sum, added chunk by chunk in order.
+    fn replay_level(&self, range: core::ops::Range<usize>, parallel: bool) -> f64 {
+        let chunk = |k: usize| {
+            let start = range.start + k * CHUNK;
+            start..(start + CHUNK).min(range.end)
+        };
+        let chunks = range.len().div_ceil(CHUNK);
+        #[cfg(feature = "rayon")]
+        if parallel && chunks >= PARALLEL_MIN_CHUNKS {
+            use rayon::prelude::*;
+            let mut sums = vec![0.0f64; chunks];
+            sums.par_iter_mut()
+                .enumerate()
+                .for_each(|(k, sum)| *sum = self.replay_chunk(chunk(k)));
+            return sums.iter().sum();
+        }
+        #[cfg(not(feature = "rayon"))]
+        let _ = (parallel, PARALLEL_MIN_CHUNKS);
+        (0..chunks).map(|k| self.replay_chunk(chunk(k))).sum()
+    }
+
+    /// Replays one chunk of a level, last entry first; returns its half-area sum.
+    fn replay_chunk(&self, range: core::ops::Range<usize>) -> f64 {
+        let node = |i: u32| {
+            assert!((i as usize) < self.node_count);
+            // SAFETY: in bounds (checked above); disjoint per entry (see the type's docs).
+            unsafe { &mut *self.nodes.add(i as usize) }
+        };
+        let mut area = 0.0f64;
+        for e in range.clone().rev() {
+            if let Some(ahead) = e.checked_sub(PREFETCH_DISTANCE) {
+                prefetch_node(node(self.internal[ahead]));
+                for c in self.children[ahead] {
+                    if c & LEAF_CHILD != 0 {
+                        prefetch_node(node(c & !LEAF_CHILD));
+                    }
+                }
+            }
+            let child = |c: u32| -> (Aabb, u32) {
+                if c & LEAF_CHILD != 0 {
+                    let leaf = node(c & !LEAF_CHILD);
+                    if leaf.flags & (FLAG_DIRTY | FLAG_JUMPED) != 0 {
+                        leaf.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
+                    }
+                    (leaf.aabb, 0)
+                } else {
+                    let c = c as usize;
+                    assert!(c < self.internal.len());
+                    // SAFETY: in bounds; a deeper level's entry, written before this level.
+                    unsafe { (*self.boxes.add(c), *self.heights.add(c)) }
+                }
+            };
+            let [a, b] = self.children[e];
+            let (box_a, height_a) = child(a);
+            let (box_b, height_b) = child(b);
+            let aabb = box_a.union(&box_b);
+            let height = 1 + height_a.max(height_b);
+            // SAFETY: `e` is in bounds (it indexes `children`) and only this entry writes it.
+            unsafe {
+                *self.boxes.add(e) = aabb;
+                *self.heights.add(e) = height;
+            }
+            let n = node(self.internal[e]);
+            n.aabb = aabb;
+            n.height = height;
+            area += f64::from(aabb.half_area());
+        }
+        area
+    }
+}
+
+#[cfg(all(test, feature = "rayon"))]
+mod tests {
+    use super::CHUNK;
+    use crate::Aabb;
+    use crate::dynamic::{DynamicBvh, DynamicBvhConfig};
+    use glam::Vec3A;
+
+    /// The parallel whole-tree refit writes the same bits as the one-thread refit: every
+    /// node's box and height, and the internal-area sum the quality monitor reads.
+    #[test]
+    fn parallel_replay_matches_one_thread_bit_for_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<Aabb> = (0..40_000)
+            .map(|_| {
+                let c = Vec3A::new(next(), next(), next()) * 400.0;
+                Aabb::from_center_half_extents(c, Vec3A::splat(0.5 + next()))
+            })
+            .collect();
+        let steps: Vec<Vec3A> = (0..boxes.len())
+            .map(|_| Vec3A::new(next(), next(), next()) * 4.0 - 2.0)
+            .collect();
+        let trees = [true, false].map(|parallel_refit| {
+            let mut t = DynamicBvh::with_config(DynamicBvhConfig {
+                parallel_refit,
+                // Rotations and the optimiser are left out: only the refit may differ.
+                rotations: false,
+                ..DynamicBvhConfig::default()
+            });
+            let handles: Vec<_> = boxes
+                .iter()
+                .enumerate()
+                .map(|(i, b)| t.insert(i as u32, *b).unwrap())
+                .collect();
+            t.refit();
+            for round in 0..3 {
+                for ((h, b), step) in handles.iter().zip(&boxes).zip(&steps) {
+                    let offset = *step * (round + 1) as f32;
+                    let moved = Aabb::new(b.min + offset, b.max + offset);
+                    t.update(*h, moved).unwrap();
+                }
+                assert!(t.refit() > 0);
+            }
+            t.validate().unwrap();
+            t
+        });
+        let [parallel, serial] = &trees;
+        let widest = parallel
+            .schedule
+            .levels
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as usize)
+            .max()
+            .unwrap();
+        assert!(
+            widest >= 2 * CHUNK,
+            "no level wide enough to run in parallel"
+        );
+        assert_eq!(parallel.arena.nodes.len(), serial.arena.nodes.len());
+        for (i, (a, b)) in parallel
+            .arena
+            .nodes
+            .iter()
+            .zip(&serial.arena.nodes)
+            .enumerate()
+        {
+            assert_eq!(
+                (a.aabb.min.to_array(), a.aabb.max.to_array(), a.height),
+                (b.aabb.min.to_array(), b.aabb.max.to_array(), b.height),
+                "node {i}"
+            );
+        }
+        assert_eq!(
+            parallel.internal_area.to_bits(),
+            serial.internal_area.to_bits()
+        );
     }
 }
