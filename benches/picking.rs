@@ -28,8 +28,11 @@ impl Rng {
 /// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
 /// of 1 entity per 64 cubic units, and rays aimed through it. `is_static` marks every entity
 /// [`AccelStatic`] (scenery: the flat static tree) instead of leaving it dynamic (the dynamic
-/// tree, as for entities that may move).
-fn world(n: usize, is_static: bool) -> (App, Vec<Ray3d>) {
+/// tree, as for entities that may move). `snapshot` lets the plugin copy the dynamic tree
+/// into wide nodes once the world has stood still
+/// ([`AccelSettings::ray_snapshot_after_still_frames`], at any size); without it rays walk the binary
+/// dynamic tree, as they do in any frame after something moved.
+fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -41,6 +44,13 @@ fn world(n: usize, is_static: bool) -> (App, Vec<Ray3d>) {
     ))
     .init_asset::<Mesh>()
     .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+    // With the snapshot: at every size the bench runs (the default stops at 20,000 dynamic
+    // entities, for the copy's one-frame cost, which the bench prints).
+    app.insert_resource(AccelSettings {
+        ray_snapshot_after_still_frames: snapshot.then_some(30),
+        ray_snapshot_max_entities: usize::MAX,
+        ..default()
+    });
     app.finish();
     let meshes = {
         let mut assets = app.world_mut().resource_mut::<Assets<Mesh>>();
@@ -84,7 +94,11 @@ fn world(n: usize, is_static: bool) -> (App, Vec<Ray3d>) {
             break;
         }
         std::thread::sleep(std::time::Duration::from_millis(10));
-        app.update();
+        update_reporting_snapshot(&mut app);
+    }
+    // Still frames, after which the plugin copies the dynamic tree for rays (when allowed).
+    for _ in 0..32 {
+        update_reporting_snapshot(&mut app);
     }
     let rays = (0..1024)
         .map(|_| {
@@ -96,6 +110,27 @@ fn world(n: usize, is_static: bool) -> (App, Vec<Ray3d>) {
     (app, rays)
 }
 
+/// Runs a frame, and prints what the ray snapshot of the dynamic tree cost if the frame took
+/// one.
+fn update_reporting_snapshot(app: &mut App) {
+    let held = |app: &App| {
+        app.world()
+            .resource::<AccelTrees>()
+            .query()
+            .has_dynamic_ray_snapshot()
+    };
+    let before = held(app);
+    app.update();
+    if !before && held(app) {
+        let world = app.world();
+        println!(
+            "{} dynamic entities: ray snapshot taken in {:?}",
+            world.resource::<AccelTrees>().dynamic().len(),
+            world.resource::<AccelStats>().maintain_time
+        );
+    }
+}
+
 fn picking(c: &mut Criterion) {
     let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
     for n in [10_000, 100_000] {
@@ -103,7 +138,7 @@ fn picking(c: &mut Criterion) {
         group.sample_size(10);
         let mut i = 0;
         {
-            let (mut app, rays) = world(n, true);
+            let (mut app, rays) = world(n, true, true);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
             let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
             group.bench_function("bevy_accel AccelRayCast, static entities", |b| {
@@ -113,17 +148,36 @@ fn picking(c: &mut Criterion) {
                 })
             });
         }
-        let (mut app, rays) = world(n, false);
+        {
+            let (mut app, rays) = world(n, false, false);
+            let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
+            let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
+            assert!(!ray_cast.trees().query().has_dynamic_ray_snapshot());
+            group.bench_function(
+                "bevy_accel AccelRayCast, dynamic entities, binary tree",
+                |b| {
+                    b.iter(|| {
+                        i = (i + 1) % rays.len();
+                        black_box(ray_cast.cast_ray(rays[i], &settings).len())
+                    })
+                },
+            );
+        }
+        let (mut app, rays) = world(n, false, true);
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
         let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
         let world = app.world();
         let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
-        group.bench_function("bevy_accel AccelRayCast, dynamic entities", |b| {
-            b.iter(|| {
-                i = (i + 1) % rays.len();
-                black_box(ray_cast.cast_ray(rays[i], &settings).len())
-            })
-        });
+        assert!(ray_cast.trees().query().has_dynamic_ray_snapshot());
+        group.bench_function(
+            "bevy_accel AccelRayCast, dynamic entities at rest, snapshot",
+            |b| {
+                b.iter(|| {
+                    i = (i + 1) % rays.len();
+                    black_box(ray_cast.cast_ray(rays[i], &settings).len())
+                })
+            },
+        );
         let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
         group.bench_function("bevy MeshRayCast", |b| {
             b.iter(|| {

@@ -263,11 +263,15 @@ fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
 }
 
 /// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
-/// decayed. Does nothing in a frame where no dynamic leaf moved.
+/// decayed. Does no tree work in a frame where no dynamic leaf moved, but the first time the
+/// world has been still for [`AccelSettings::ray_snapshot_after_still_frames`] frames it
+/// copies the dynamic tree into wide nodes for rays (up to
+/// [`AccelSettings::ray_snapshot_max_entities`]).
 pub(crate) fn maintain_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,
     mut stats: ResMut<AccelStats>,
+    mut still_frames: Local<u32>,
 ) {
     let config = DynamicBvhConfig {
         margin: settings.fat_margin,
@@ -281,8 +285,25 @@ pub(crate) fn maintain_trees(
     if *trees.dynamic().config() != config {
         trees.dynamic_mut().set_config(config);
     }
+    *still_frames = if stats.updated == 0 && stats.inserted == 0 && stats.removed == 0 {
+        still_frames.saturating_add(1)
+    } else {
+        0
+    };
     if !trees.dynamic().needs_refit() && stats.inserted == 0 && stats.removed == 0 {
         stats.maintain_time = Default::default();
+        // Checked through shared access first: a mutable access marks `AccelTrees` changed.
+        if settings
+            .ray_snapshot_after_still_frames
+            .is_some_and(|after| *still_frames >= after)
+            && !trees.query().has_dynamic_ray_snapshot()
+            && !trees.dynamic().is_empty()
+            && trees.dynamic().len() <= settings.ray_snapshot_max_entities
+        {
+            let start = Instant::now();
+            trees.snapshot_dynamic_for_rays();
+            stats.maintain_time = start.elapsed();
+        }
         return;
     }
     let start = Instant::now();

@@ -225,6 +225,12 @@ impl AccelTrees {
         self.pair.dynamic_mut()
     }
 
+    /// Copies the dynamic tree into 8-wide nodes for rays, until it next changes (see
+    /// [`StaticDynamicPair::snapshot_dynamic_for_rays`]). Returns whether a copy is held.
+    pub(crate) fn snapshot_dynamic_for_rays(&mut self) -> bool {
+        self.pair.snapshot_dynamic_for_rays()
+    }
+
     fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
         let entry = SlotEntry { bounds, frame };
         if let Some(slot) = self.free_slots.pop() {

@@ -282,6 +282,21 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
     for seed in [1, 2] {
         let mut app = app();
         populate(&mut app, 1000, seed);
+        if seed == 2 {
+            // Seed 2's rays walk the dynamic tree's wide copy, which the plugin makes once
+            // the world has been still long enough; seed 1's walk the binary tree.
+            let wait = AccelSettings::default().ray_snapshot_after_still_frames;
+            for _ in 0..wait.expect("on by default") {
+                app.update();
+            }
+        }
+        assert_eq!(
+            app.world()
+                .resource::<AccelTrees>()
+                .query()
+                .has_dynamic_ray_snapshot(),
+            seed == 2
+        );
         let tally = equivalence(&mut app, 10_000, seed * 77);
         println!("seed {seed}: {tally:?}");
         assert!(

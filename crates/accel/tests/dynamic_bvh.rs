@@ -760,7 +760,7 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         model.insert(10_000 + i, b);
     }
     let static_before = pair.static_tree().nodes().to_vec();
-    for _ in 0..30 {
+    for round in 0..30 {
         for _ in 0..300 {
             let k = rng.below(hs.len() as u32) as usize;
             let b = random_box(&mut rng, 80.0);
@@ -769,6 +769,12 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         }
         pair.dynamic_mut().maintain();
         pair.dynamic().validate().unwrap();
+        // Every other round rays walk the dynamic tree's 8-wide snapshot, taken after this
+        // round's edits (the edits of the round before dropped the last one).
+        assert!(!pair.has_dynamic_ray_snapshot());
+        if round % 2 == 1 {
+            assert!(pair.snapshot_dynamic_for_rays());
+        }
         check_queries(&pair, &model, &mut rng, 80.0, 10);
     }
     // The static half is never touched.
@@ -782,7 +788,8 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         .map(|(&i, &b)| (i, b))
         .collect();
     check_queries(&only_static, &static_model, &mut rng, 80.0, 10);
-    let only_dynamic = StaticDynamicPair::new(Bvh::default(), d);
+    let mut only_dynamic = StaticDynamicPair::new(Bvh::default(), d);
+    assert!(only_dynamic.snapshot_dynamic_for_rays());
     let dyn_model: HashMap<u32, Aabb> = model
         .iter()
         .filter(|(i, _)| **i >= 10_000)

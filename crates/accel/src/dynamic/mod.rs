@@ -57,6 +57,7 @@
 //! assert!(tree.remove(handles[3]).is_err());
 //! ```
 
+mod flatten;
 mod insert;
 mod node;
 mod optimize;
