@@ -8,7 +8,8 @@ use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
 struct Rng(u64);
@@ -131,36 +132,48 @@ fn update_reporting_snapshot(app: &mut App) {
     }
 }
 
+/// Times `cast` on the rays in turn, one ray per iteration.
+fn bench_casts(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    rays: &[Ray3d],
+    mut cast: impl FnMut(Ray3d) -> usize,
+) {
+    let mut i = 0;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            i = (i + 1) % rays.len();
+            black_box(cast(rays[i]))
+        })
+    });
+}
+
 fn picking(c: &mut Criterion) {
     let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
     for n in [10_000, 100_000] {
         let mut group = c.benchmark_group(format!("picking/{n}"));
         group.sample_size(10);
-        let mut i = 0;
         {
             let (mut app, rays) = world(n, true, true);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
             let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
-            group.bench_function("bevy_accel AccelRayCast, static entities", |b| {
-                b.iter(|| {
-                    i = (i + 1) % rays.len();
-                    black_box(ray_cast.cast_ray(rays[i], &settings).len())
-                })
-            });
+            bench_casts(
+                &mut group,
+                "bevy_accel AccelRayCast, static entities",
+                &rays,
+                |ray| ray_cast.cast_ray(ray, &settings).len(),
+            );
         }
         {
             let (mut app, rays) = world(n, false, false);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
             let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
             assert!(!ray_cast.trees().query().has_dynamic_ray_snapshot());
-            group.bench_function(
+            bench_casts(
+                &mut group,
                 "bevy_accel AccelRayCast, dynamic entities, binary tree",
-                |b| {
-                    b.iter(|| {
-                        i = (i + 1) % rays.len();
-                        black_box(ray_cast.cast_ray(rays[i], &settings).len())
-                    })
-                },
+                &rays,
+                |ray| ray_cast.cast_ray(ray, &settings).len(),
             );
         }
         let (mut app, rays) = world(n, false, true);
@@ -169,21 +182,15 @@ fn picking(c: &mut Criterion) {
         let world = app.world();
         let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
         assert!(ray_cast.trees().query().has_dynamic_ray_snapshot());
-        group.bench_function(
+        bench_casts(
+            &mut group,
             "bevy_accel AccelRayCast, dynamic entities at rest, snapshot",
-            |b| {
-                b.iter(|| {
-                    i = (i + 1) % rays.len();
-                    black_box(ray_cast.cast_ray(rays[i], &settings).len())
-                })
-            },
+            &rays,
+            |ray| ray_cast.cast_ray(ray, &settings).len(),
         );
         let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
-        group.bench_function("bevy MeshRayCast", |b| {
-            b.iter(|| {
-                i = (i + 1) % rays.len();
-                black_box(ray_cast.cast_ray(rays[i], &settings).len())
-            })
+        bench_casts(&mut group, "bevy MeshRayCast", &rays, |ray| {
+            ray_cast.cast_ray(ray, &settings).len()
         });
         group.finish();
     }
