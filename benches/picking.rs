@@ -153,28 +153,21 @@ fn picking(c: &mut Criterion) {
     for n in [10_000, 100_000] {
         let mut group = c.benchmark_group(format!("picking/{n}"));
         group.sample_size(10);
-        {
-            let (mut app, rays) = world(n, true, true);
-            let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
-            let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
-            bench_casts(
-                &mut group,
-                "bevy_accel AccelRayCast, static entities",
-                &rays,
-                |ray| ray_cast.cast_ray(ray, &settings).len(),
-            );
-        }
-        {
-            let (mut app, rays) = world(n, false, false);
+        for (is_static, snapshot, name) in [
+            (true, true, "bevy_accel AccelRayCast, static entities"),
+            (
+                false,
+                false,
+                "bevy_accel AccelRayCast, dynamic entities, binary tree",
+            ),
+        ] {
+            let (mut app, rays) = world(n, is_static, snapshot);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
             let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
             assert!(!ray_cast.trees().query().has_dynamic_ray_snapshot());
-            bench_casts(
-                &mut group,
-                "bevy_accel AccelRayCast, dynamic entities, binary tree",
-                &rays,
-                |ray| ray_cast.cast_ray(ray, &settings).len(),
-            );
+            bench_casts(&mut group, name, &rays, |ray| {
+                ray_cast.cast_ray(ray, &settings).len()
+            });
         }
         let (mut app, rays) = world(n, false, true);
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
