@@ -7,6 +7,8 @@
 //! - 10% of the leaves moved at random by up to 1 unit per axis: `update`, the partial
 //!   `refit()` and the rest of `maintain()` per frame;
 //! - the tree's depth, by a walk of the tree (`stats`) and read from the root (`height`);
+//! - the 8-wide copy of the tree that rays walk while it holds still
+//!   (`StaticDynamicPair::snapshot_dynamic_for_rays`);
 //! - the machine's floor: what one 64-byte line costs over an array the size of the tree's
 //!   arena, read in order, at random with a prefetch, and in a chain of dependent loads.
 //!
@@ -121,6 +123,21 @@ fn main() {
     println!(
         "floor, ns per 64-byte line over 12.8 MB: in order {o:.1}, random prefetched {p:.1}, dependent chain {c:.1}"
     );
+    {
+        let (t, _) = tree(&boxes);
+        let mut pair = accel::dynamic::StaticDynamicPair::new(accel::Bvh::default(), t);
+        let mut times = Vec::new();
+        for _ in 0..9 {
+            pair.dynamic_mut();
+            let s = Instant::now();
+            assert!(pair.snapshot_dynamic_for_rays());
+            times.push(s.elapsed().as_secs_f64() * 1e3);
+        }
+        println!(
+            "8-wide ray snapshot of the dynamic tree: {:.1} ms (median of 9)",
+            median(times)
+        );
+    }
     {
         let (t, _) = tree(&boxes);
         let s = Instant::now();

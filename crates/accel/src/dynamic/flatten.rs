@@ -6,6 +6,11 @@ use super::DynamicBvh;
 use super::node::NULL;
 use crate::Bvh;
 use crate::bvh::BvhNode;
+use crate::prefetch::prefetch_node;
+
+/// How many queue entries ahead the copy asks for nodes (as the refit schedule's compilation
+/// does, whose steps are as short).
+const PREFETCH_DISTANCE: usize = 48;
 
 impl DynamicBvh {
     /// The tree as a flat binary [`Bvh`] of the same shape: the same boxes (fat ones at the
@@ -16,10 +21,19 @@ impl DynamicBvh {
         let mut primitive_indices = Vec::with_capacity(self.len());
         if self.root != NULL {
             nodes.push(BvhNode::default());
-            // (arena node, flat node); children are placed next to each other, as the flat
-            // layout names both by the left one.
-            let mut stack = vec![(self.root, 0usize)];
-            while let Some((node, flat)) = stack.pop() {
+            // Breadth-first, as a queue of (arena node, flat node): the arena's order is
+            // random after edits, and a queue names each node long before it is read, so it
+            // is prefetched a fixed distance ahead and the misses overlap (a depth-first
+            // copy waited one memory latency per node: 11-12 ms of a 100k-leaf tree's
+            // 33-38 ms snapshot). Children get adjacent flat slots, as the layout needs.
+            let mut queue = vec![(self.root, 0usize)];
+            let mut k = 0;
+            while k < queue.len() {
+                if let Some(&(ahead, _)) = queue.get(k + PREFETCH_DISTANCE) {
+                    prefetch_node(&self.arena.nodes[ahead as usize]);
+                }
+                let (node, flat) = queue[k];
+                k += 1;
                 let n = &self.arena.nodes[node as usize];
                 nodes[flat].set_aabb(&n.aabb);
                 if n.is_leaf() {
@@ -32,8 +46,8 @@ impl DynamicBvh {
                     nodes[flat].count = 0;
                     nodes.push(BvhNode::default());
                     nodes.push(BvhNode::default());
-                    stack.push((n.children[1], left + 1));
-                    stack.push((n.children[0], left));
+                    queue.push((n.children[0], left));
+                    queue.push((n.children[1], left + 1));
                 }
             }
         }
