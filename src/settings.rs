@@ -37,14 +37,14 @@ pub struct AccelSettings {
     pub background_rebuild: bool,
     /// After this many frames in a row in which no tracked entity moved, entered or left,
     /// copy the dynamic tree into 8-wide nodes that rays (picking) walk until it next changes:
-    /// a binary tree is deep, and on the picking bench rays through the copy ran 1.4-1.6x
-    /// faster. The copy is made once per still period, in the frame that ends the wait, and
-    /// costs about 4 ms at 10,000 dynamic entities (46 ms at 100,000: see
-    /// [`ray_snapshot_max_entities`](Self::ray_snapshot_max_entities)). `None` never makes one.
+    /// a binary tree is deep, and on the picking bench rays through the copy ran 1.1-2.5x
+    /// faster. The copy is made once per still period. `None` never makes one.
     pub ray_snapshot_after_still_frames: Option<u32>,
-    /// The most dynamic entities the ray copy is made for: above, the copy's one-frame cost
-    /// would be a visible stutter (it is made on the main schedule, not in the background).
-    pub ray_snapshot_max_entities: usize,
+    /// Up to this many dynamic entities the ray copy is made in the frame that ends the wait
+    /// (about 4 ms at 10,000); above, on a background thread, where the frame pays only for
+    /// copying the tree's node array, and rays use the copy from the first frame after it is
+    /// done (if nothing changed meanwhile).
+    pub ray_snapshot_in_frame_max_entities: usize,
 }
 
 impl Default for AccelSettings {
@@ -62,7 +62,7 @@ impl Default for AccelSettings {
             // Half a second at 60 fps: an entity that moves now and then should not make the
             // plugin copy the tree between its moves.
             ray_snapshot_after_still_frames: Some(30),
-            ray_snapshot_max_entities: 20_000,
+            ray_snapshot_in_frame_max_entities: 20_000,
         }
     }
 }

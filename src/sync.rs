@@ -265,8 +265,9 @@ fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
 /// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
 /// decayed. Does no tree work in a frame where no dynamic leaf moved, but the first time the
 /// world has been still for [`AccelSettings::ray_snapshot_after_still_frames`] frames it
-/// copies the dynamic tree into wide nodes for rays (up to
-/// [`AccelSettings::ray_snapshot_max_entities`]).
+/// copies the dynamic tree into wide nodes for rays (above
+/// [`AccelSettings::ray_snapshot_in_frame_max_entities`], on a background thread, installed
+/// by a later still frame).
 pub(crate) fn maintain_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,
@@ -293,15 +294,21 @@ pub(crate) fn maintain_trees(
     if !trees.dynamic().needs_refit() && stats.inserted == 0 && stats.removed == 0 {
         stats.maintain_time = Default::default();
         // Checked through shared access first: a mutable access marks `AccelTrees` changed.
-        if settings
+        let query = trees.query();
+        if query.dynamic_ray_snapshot_pending() {
+            trees.poll_dynamic_ray_snapshot();
+        } else if settings
             .ray_snapshot_after_still_frames
             .is_some_and(|after| *still_frames >= after)
-            && !trees.query().has_dynamic_ray_snapshot()
+            && !query.has_dynamic_ray_snapshot()
             && !trees.dynamic().is_empty()
-            && trees.dynamic().len() <= settings.ray_snapshot_max_entities
         {
             let start = Instant::now();
-            trees.snapshot_dynamic_for_rays();
+            if trees.dynamic().len() <= settings.ray_snapshot_in_frame_max_entities {
+                trees.snapshot_dynamic_for_rays();
+            } else {
+                trees.start_dynamic_ray_snapshot();
+            }
             stats.maintain_time = start.elapsed();
         }
         return;

@@ -231,6 +231,17 @@ impl AccelTrees {
         self.pair.snapshot_dynamic_for_rays()
     }
 
+    /// Starts the same copy on another thread (see
+    /// [`StaticDynamicPair::start_dynamic_ray_snapshot`]).
+    pub(crate) fn start_dynamic_ray_snapshot(&mut self) -> bool {
+        self.pair.start_dynamic_ray_snapshot()
+    }
+
+    /// Installs a copy made on another thread if it is done and still matches.
+    pub(crate) fn poll_dynamic_ray_snapshot(&mut self) -> bool {
+        self.pair.poll_dynamic_ray_snapshot()
+    }
+
     fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
         let entry = SlotEntry { bounds, frame };
         if let Some(slot) = self.free_slots.pop() {

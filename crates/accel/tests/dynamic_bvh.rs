@@ -797,3 +797,45 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         .collect();
     check_queries(&only_dynamic, &dyn_model, &mut rng, 80.0, 10);
 }
+
+/// Polls until a background snapshot of the dynamic tree is no longer being made; returns
+/// whether one is held.
+fn wait_for_ray_snapshot(pair: &mut StaticDynamicPair) -> bool {
+    while pair.dynamic_ray_snapshot_pending() {
+        if pair.poll_dynamic_ray_snapshot() {
+            return true;
+        }
+        std::thread::yield_now();
+    }
+    pair.has_dynamic_ray_snapshot()
+}
+
+#[test]
+fn background_ray_snapshot_is_installed_only_if_the_tree_did_not_change() {
+    let mut rng = Rng::new(31);
+    let mut pair = StaticDynamicPair::new(Bvh::default(), DynamicBvh::new());
+    let mut model: HashMap<u32, Aabb> = HashMap::new();
+    let mut hs = Vec::new();
+    for i in 0..5_000u32 {
+        let b = random_box(&mut rng, 80.0);
+        hs.push(pair.dynamic_mut().insert(i, b).unwrap());
+        model.insert(i, b);
+    }
+    pair.dynamic_mut().maintain();
+    for round in 0..6 {
+        assert!(pair.start_dynamic_ray_snapshot());
+        let changed = round % 2 == 1;
+        if changed {
+            // A change while the copy is made: it must be dropped, not installed.
+            for _ in 0..200 {
+                let k = rng.below(hs.len() as u32) as usize;
+                let b = random_box(&mut rng, 80.0);
+                pair.dynamic_mut().update(hs[k], b).unwrap();
+                model.insert(k as u32, b);
+            }
+            pair.dynamic_mut().maintain();
+        }
+        assert_eq!(wait_for_ray_snapshot(&mut pair), !changed, "round {round}");
+        check_queries(&pair, &model, &mut rng, 80.0, 20);
+    }
+}

@@ -63,6 +63,7 @@ mod node;
 mod optimize;
 mod pair;
 mod quality;
+mod ray_snapshot;
 mod refit;
 mod refit_schedule;
 mod remove;

@@ -11,6 +11,7 @@
 //! ([`StaticDynamicPair::snapshot_dynamic_for_rays`]).
 
 use super::DynamicBvh;
+use super::ray_snapshot::RaySnapshot;
 use crate::bvh::wide::Bvh8;
 use crate::query::{BoundingTree, RayWalk};
 use crate::{Aabb, Bvh, Ray};
@@ -59,7 +60,7 @@ pub struct StaticDynamicPair {
     /// The dynamic tree collapsed to 8-wide nodes, for rays, while it holds still. Dropped by
     /// [`Self::dynamic_mut`], the only way to change the dynamic tree, so it never outlives
     /// the tree it copies.
-    dynamic_wide: Option<Bvh8>,
+    dynamic_rays: RaySnapshot,
 }
 
 impl StaticDynamicPair {
@@ -69,7 +70,7 @@ impl StaticDynamicPair {
             static_wide: Bvh8::from_bvh(&static_tree),
             static_tree,
             dynamic,
-            dynamic_wide: None,
+            dynamic_rays: RaySnapshot::default(),
         }
     }
 
@@ -93,7 +94,7 @@ impl StaticDynamicPair {
     /// The dynamic tree, for insertions, updates and `maintain`. Drops the dynamic tree's ray
     /// snapshot, if any (see [`Self::snapshot_dynamic_for_rays`]).
     pub fn dynamic_mut(&mut self) -> &mut DynamicBvh {
-        self.dynamic_wide = None;
+        self.dynamic_rays.invalidate();
         &mut self.dynamic
     }
 
@@ -124,16 +125,50 @@ impl StaticDynamicPair {
     /// assert!(!pair.has_dynamic_ray_snapshot());
     /// ```
     pub fn snapshot_dynamic_for_rays(&mut self) -> bool {
-        if self.dynamic_wide.is_none() && !self.dynamic.is_empty() && !self.dynamic.needs_refit() {
-            self.dynamic_wide = Some(Bvh8::from_bvh(&self.dynamic.to_flat_bvh()));
-        }
-        self.dynamic_wide.is_some()
+        self.dynamic_rays.make(&self.dynamic)
+    }
+
+    /// [`Self::snapshot_dynamic_for_rays`] on another thread, for trees whose copy would take
+    /// too long for one frame: the caller's cost is one copy of the dynamic tree's node array.
+    /// [`Self::poll_dynamic_ray_snapshot`] installs the result when it is done, unless the
+    /// dynamic tree changed meanwhile. Returns whether a snapshot is held or being made.
+    ///
+    /// ```
+    /// use accel::{Aabb, Bvh, Ray, SpatialQuery};
+    /// use accel::dynamic::{DynamicBvh, StaticDynamicPair};
+    /// use glam::Vec3A;
+    ///
+    /// let mut pair = StaticDynamicPair::new(Bvh::default(), DynamicBvh::new());
+    /// let b = Aabb::new(Vec3A::splat(1.0), Vec3A::splat(2.0));
+    /// pair.dynamic_mut().insert(7, b).unwrap();
+    /// pair.dynamic_mut().maintain();
+    /// assert!(pair.start_dynamic_ray_snapshot());
+    /// while !pair.poll_dynamic_ray_snapshot() {
+    ///     std::thread::yield_now();
+    /// }
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::ONE.normalize());
+    /// assert_eq!(pair.cast_ray(&ray, |_, r| r.intersect_aabb(&b)).unwrap().primitive, 7);
+    /// ```
+    pub fn start_dynamic_ray_snapshot(&mut self) -> bool {
+        self.dynamic_rays.start(&self.dynamic)
+    }
+
+    /// Installs a snapshot finished on another thread (see
+    /// [`Self::start_dynamic_ray_snapshot`]) if the dynamic tree has not changed since it was
+    /// started; drops it otherwise. Never waits. Returns whether a snapshot is held.
+    pub fn poll_dynamic_ray_snapshot(&mut self) -> bool {
+        self.dynamic_rays.poll()
+    }
+
+    /// Whether a snapshot of the dynamic tree is being made on another thread.
+    pub fn dynamic_ray_snapshot_pending(&self) -> bool {
+        self.dynamic_rays.is_pending()
     }
 
     /// Whether rays walk a snapshot of the dynamic tree (see
     /// [`Self::snapshot_dynamic_for_rays`]).
     pub fn has_dynamic_ray_snapshot(&self) -> bool {
-        self.dynamic_wide.is_some()
+        self.dynamic_rays.wide().is_some()
     }
 
     /// Both trees, by value.
@@ -217,7 +252,7 @@ impl RayWalk for StaticDynamicPair {
     {
         let entry = |bounds: Aabb| ray.intersect_aabb(&bounds).unwrap_or(f32::INFINITY);
         let static_first = entry(self.static_wide.bounds()) <= entry(self.dynamic.bounds());
-        let dynamic_wide = self.dynamic_wide.as_ref();
+        let dynamic_wide = self.dynamic_rays.wide();
         // A visitor that stops the walk must stop the second tree's walk too.
         let stopped = core::cell::Cell::new(false);
         let mut visit = |p: u32, r: &mut Ray| {
