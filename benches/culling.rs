@@ -6,15 +6,16 @@
 //! `cargo bench --bench culling -- --warm-up-time 1 --measurement-time 3`
 
 use bevy::camera::primitives::{Aabb, Frustum};
-use bevy::camera::visibility::{
-    VisibilityClass, VisibilityPlugin, VisibilitySystems, check_visibility_cpu_culling,
-};
+use bevy::camera::visibility::{VisibilityClass, VisibilitySystems, check_visibility_cpu_culling};
 use bevy::ecs::schedule::SingleThreadedExecutor;
 use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::headless_app;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::any::TypeId;
 use std::time::{Duration, Instant};
@@ -40,17 +41,8 @@ fn stop_timer(mut t: ResMut<CullTimer>) {
 
 /// Entities on a cube grid of side `side * 4` units.
 fn app(n: usize, ours: bool) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        TransformPlugin,
-        VisibilityPlugin,
-        AccelPlugin::default(),
-    ))
-    .init_asset::<Mesh>()
-    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
-    .init_resource::<CullTimer>();
+    let mut app = headless_app();
+    app.init_resource::<CullTimer>();
     app.edit_schedule(PostUpdate, |s| {
         s.set_executor(SingleThreadedExecutor::new());
     });

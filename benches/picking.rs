@@ -3,11 +3,13 @@
 //!
 //! `cargo bench -p bevy_accel --bench picking -- --warm-up-time 1 --measurement-time 3`
 
-use bevy::camera::visibility::VisibilityPlugin;
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::headless_app;
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -34,19 +36,10 @@ impl Rng {
 /// ([`AccelSettings::ray_snapshot_after_still_frames`]); without it rays walk the binary
 /// dynamic tree, as they do in any frame after something moved.
 fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        TransformPlugin,
-        VisibilityPlugin,
-        AccelPlugin::default(),
-        AccelPickingPlugin,
-    ))
-    .init_asset::<Mesh>()
-    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+    let mut app = headless_app();
+    app.add_plugins(AccelPickingPlugin);
     // The copy is made in the frame at every size the bench runs, so that the bench can print
-    // its cost (by default, above 20,000 dynamic entities it is made on another thread).
+    // its cost (by default, above 5,000 dynamic entities it is made on another thread).
     app.insert_resource(AccelSettings {
         ray_snapshot_after_still_frames: snapshot.then_some(30),
         ray_snapshot_in_frame_max_entities: usize::MAX,

@@ -2,14 +2,15 @@
 //! scenes and camera paths run in two apps, one with each, and the visible sets must agree.
 
 use bevy::camera::primitives::{Aabb, Frustum};
-use bevy::camera::visibility::{
-    NoFrustumCulling, RenderLayers, VisibilityClass, VisibilityPlugin, VisibleEntities,
-};
+use bevy::camera::visibility::{NoFrustumCulling, RenderLayers, VisibilityClass, VisibleEntities};
 use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
+
+mod common;
+use common::headless_app;
 use std::any::TypeId;
 
 /// Which of the test's cameras a view is (query order differs between the two apps).
@@ -38,18 +39,7 @@ impl Rng {
 }
 
 fn app(ours: bool) -> App {
-    let mut app = App::new();
-    // Bevy's visibility systems read mesh assets (to compute bounds), so assets are needed
-    // even though this scene sets its `Aabb`s by hand.
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        TransformPlugin,
-        VisibilityPlugin,
-        AccelPlugin::default(),
-    ))
-    .init_asset::<Mesh>()
-    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+    let mut app = headless_app();
     if ours {
         app.add_plugins(AccelCullingPlugin);
     }
