@@ -134,6 +134,10 @@ pub(crate) fn sync_trees(
     let start = Instant::now();
     let mut counts = SyncCounts::default();
     let wanted = |tracked_marker: bool| tracked_marker || !settings.require_marker;
+    // `AccelTrees` is marked changed below only if the trees changed, so that readers can
+    // skip work in still frames (the culling keeps a view's walk while neither its frustum
+    // nor the trees change).
+    let tree_state = trees.bypass_change_detection();
 
     for entity in pending.0.drain() {
         let desired =
@@ -145,7 +149,7 @@ pub(crate) fn sync_trees(
                 });
         match desired {
             Some((aabb, gt, is_static)) => place_checked(
-                &mut trees,
+                tree_state,
                 &mut rejected,
                 entity,
                 aabb,
@@ -155,7 +159,7 @@ pub(crate) fn sync_trees(
             ),
             None => {
                 rejected.0.remove(&entity);
-                counts.removed += trees.remove(entity) as usize;
+                counts.removed += tree_state.remove(entity) as usize;
             }
         }
     }
@@ -183,7 +187,7 @@ pub(crate) fn sync_trees(
             }
         }
     };
-    let mut state = (&mut *trees, &mut *rejected, &mut counts);
+    let mut state = (&mut *tree_state, &mut *rejected, &mut counts);
     for_each_prefetched_in_two_stages(
         moved.iter(),
         &mut state,
@@ -202,7 +206,10 @@ pub(crate) fn sync_trees(
             place_moved(true),
         );
     }
-    let static_rebuilt = trees.rebuild_static_if_dirty();
+    let static_rebuilt = tree_state.rebuild_static_if_dirty();
+    if counts.inserted + counts.updated + counts.removed > 0 || static_rebuilt {
+        trees.set_changed();
+    }
 
     stats.inserted = counts.inserted;
     stats.updated = counts.updated;

@@ -165,15 +165,43 @@ fn visible_sets_equal_bevys_over_camera_paths() {
         }
     }
     let mut rng_path = Rng(5);
-    let (mut flat_views, mut tree_views, mut accepted_whole) = (0, 0, 0);
+    let (mut flat_views, mut tree_views, mut accepted_whole, mut reused_walks) = (0, 0, 0, 0);
+    let mut step: Vec<(Vec3, Vec3, f32)> = cams.clone();
     for frame in 0..25 {
-        // Move the cameras along a path and the moving parent; identical in both apps.
-        let step: Vec<(Vec3, Vec3, f32)> = cams
-            .iter()
-            .map(|&(e, t, f)| (e + rng_path.vec3(40.0), t + rng_path.vec3(20.0), f))
-            .collect();
-        let shift = rng_path.vec3(3.0);
-        for app in [&mut bevy_app, &mut accel_app] {
+        // Move the cameras along a path and the moving parent; identical in both apps. Every
+        // third frame nothing moves but some entities are hidden or shown: the culling may
+        // reuse its last walk then, and must still see the visibility change.
+        let still = frame % 3 == 2;
+        // Every sixth frame only the parent moves: the trees change under a camera that
+        // did not, so a walk kept from the frame before must not be used.
+        let camera_moves = !still && frame % 6 != 3;
+        if camera_moves {
+            step = cams
+                .iter()
+                .map(|&(e, t, f)| (e + rng_path.vec3(40.0), t + rng_path.vec3(20.0), f))
+                .collect();
+        }
+        let shift = if still {
+            Vec3::ZERO
+        } else if !camera_moves {
+            // Far enough for the parent's children to leave or enter the views.
+            rng_path.vec3(150.0)
+        } else {
+            rng_path.vec3(3.0)
+        };
+        for (app, entities) in [(&mut bevy_app, &a), (&mut accel_app, &b)] {
+            if still {
+                for (i, &e) in entities.iter().enumerate() {
+                    if (i + frame) % 7 == 0 {
+                        let hidden = (i + frame) % 2 == 0;
+                        app.world_mut().entity_mut(e).insert(if hidden {
+                            Visibility::Hidden
+                        } else {
+                            Visibility::Inherited
+                        });
+                    }
+                }
+            }
             let world = app.world_mut();
             let mut q = world.query::<(&ViewIndex, &mut Frustum)>();
             for (i, mut f) in q.iter_mut(world) {
@@ -182,7 +210,9 @@ fn visible_sets_equal_bevys_over_camera_paths() {
             }
             let mut parents = world.query_filtered::<&mut Transform, (Without<Aabb>, Without<Camera>, Without<Drawable>)>();
             for mut t in parents.iter_mut(world) {
-                t.translation += shift;
+                if shift != Vec3::ZERO {
+                    t.translation += shift;
+                }
             }
             app.update();
         }
@@ -215,7 +245,9 @@ fn visible_sets_equal_bevys_over_camera_paths() {
         flat_views += stats.flat_views;
         tree_views += stats.views - stats.flat_views;
         accepted_whole += stats.accepted_by_subtree;
+        reused_walks += stats.reused_walks;
     }
+    assert!(reused_walks > 0, "still frames must reuse the last walk");
     // Both the tree traversal and the flat pass (views that saw most of the world) ran; the
     // narrow view keeps the tree path busy every frame.
     assert!(

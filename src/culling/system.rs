@@ -3,6 +3,7 @@
 use super::class_lists::ClassLists;
 use super::slot_order::FoundSlots;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
+use super::view_walk::ViewWalk;
 use crate::components::AccelIgnore;
 use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
@@ -33,6 +34,9 @@ pub struct CullingStats {
     /// Views culled with the flat parallel pass instead of the trees (most of the world was
     /// in view last frame).
     pub flat_views: usize,
+    /// Views whose tree walk was reused from the last frame, because neither their frustum
+    /// nor the trees had changed (the entities found are still decided one by one).
+    pub reused_walks: usize,
     /// Time spent in the culling system.
     pub time: Duration,
 }
@@ -90,12 +94,12 @@ type UntrackedQuery<'w, 's> = Query<
     ),
 >;
 
-/// The view frustum as the trees test it. Bevy culls against the near plane but never the far
-/// one, so the far half-space is replaced by one containing all space.
-fn tree_frustum(frustum: &Frustum) -> AccelFrustum {
+/// The view frustum's planes as the trees test them. Bevy culls against the near plane but
+/// never the far one, so the far half-space is replaced by one containing all space.
+fn tree_planes(frustum: &Frustum) -> [Vec4; 6] {
     let mut planes = frustum.half_spaces.map(|h| h.normal_d());
     planes[AccelFrustum::FAR] = Vec4::new(0.0, 0.0, 0.0, 1.0);
-    AccelFrustum::from_planes(planes)
+    planes
 }
 
 /// Sets `ViewVisibility` and fills `VisibleEntities` for every active view.
@@ -111,8 +115,7 @@ pub(crate) fn cull_views_with_trees(
     mut thread_queues: Local<Parallel<(ClassLists, usize)>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
     mut found: Local<FoundSlots>,
-    mut inside: Local<Vec<Entity>>,
-    mut crossing: Local<Vec<Entity>>,
+    mut walks: Local<EntityHashMap<ViewWalk>>,
     mut class_lists: Local<ClassLists>,
     entities: &Entities,
     bounds: Query<BoundsItem, Without<NoCpuCulling>>,
@@ -121,6 +124,9 @@ pub(crate) fn cull_views_with_trees(
     let mut s = CullingStats::default();
     let ranges = ranges.as_deref();
     let tracked = trees.len().max(1) as f32;
+    if trees.is_changed() {
+        walks.values_mut().for_each(ViewWalk::forget);
+    }
     for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in
         &mut views
     {
@@ -179,17 +185,22 @@ pub(crate) fn cull_views_with_trees(
                 pass.decide_exact(entity);
             }
         } else {
-            // The tree finds entities in spatial order, which is random in the ECS tables;
-            // they are decided in slot order instead (see `FoundSlots`).
-            found.clear();
-            trees
-                .query()
-                .for_each_in_frustum(&tree_frustum(frustum), |slot, containment| {
-                    found.push(slot, containment != Containment::Inside);
-                });
-            inside.clear();
-            crossing.clear();
-            found.drain_entities(trees.slot_entities(), &mut inside, &mut crossing);
+            let planes = tree_planes(frustum);
+            let walk = walks.entry(view).or_default();
+            if walk.walked(&planes) {
+                pass.stats.reused_walks += 1;
+            } else {
+                // The tree finds entities in spatial order, which is random in the ECS
+                // tables; they are decided in slot order instead (see `FoundSlots`).
+                walk.restart(planes);
+                found.clear();
+                trees.query().for_each_in_frustum(
+                    &AccelFrustum::from_planes(planes),
+                    |slot, containment| found.push(slot, containment != Containment::Inside),
+                );
+                found.drain_entities(trees.slot_entities(), &mut walk.inside, &mut walk.crossing);
+            }
+            let (inside, crossing) = (&walk.inside, &walk.crossing);
             // Each batch's rows are requested while the batch before it is decided, so the
             // prefetches have a batch's worth of work to arrive in.
             let mut batches = inside.chunks(TOUCH_BATCH).peekable();
@@ -221,6 +232,7 @@ pub(crate) fn cull_views_with_trees(
         visible_fraction.insert(view, (s.visible - visible_before) as f32 / tracked);
     }
     visible_fraction.retain(|view, _| views.contains(*view));
+    walks.retain(|view, _| views.contains(*view));
     s.time = start.elapsed();
     *stats = s;
 }
