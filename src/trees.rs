@@ -123,7 +123,9 @@ struct Tracked {
 /// query callback into the entity and its exact world box.
 ///
 /// The plugin keeps this resource in sync in [`AccelSystems::Sync`](crate::AccelSystems);
-/// read it in any system that runs after it.
+/// read it in any system that runs after it. It is marked changed (Bevy's change detection)
+/// only in frames where the trees changed, so `Res<AccelTrees>::is_changed` tells a reader
+/// whether what it computed from them last frame still holds.
 #[derive(Resource, Default)]
 pub struct AccelTrees {
     pub(crate) pair: StaticDynamicPair,
