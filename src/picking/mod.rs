@@ -4,7 +4,7 @@
 //!
 //! Bevy's mesh ray cast inverts every entity's transform to test its box, then scans every
 //! triangle of each candidate (bevy issue 15817 and the notes in this repository). Here the
-//! [`AccelTrees`](crate::AccelTrees) give the candidates in distance order, nearest blocking
+//! [`AccelTrees`] give the candidates in distance order, nearest blocking
 //! hits cut the search, and each mesh asset has a triangle BVH built the first time a ray
 //! reaches it ([`AccelMeshCache`]).
 
