@@ -4,8 +4,8 @@
 //! A binary tree is deep: on the picking bench a ray through the dynamic tree of 10,000
 //! entities visits 52 binary nodes, against about 10 wide ones through the static tree.
 //! Copying the tree into wide nodes after every change would cost more than the rays save
-//! (about 4 ms at 10,000 leaves, 30-45 ms at 100,000), so the copy is made once the tree
-//! holds still, and kept until it changes.
+//! (1.8 ms at 10,000 leaves, 20-45 ms at 100,000, on the benchmark VM), so the copy is made
+//! once the tree holds still, and kept until it changes.
 
 use super::DynamicBvh;
 use super::flatten::flatten;
