@@ -238,7 +238,8 @@ impl SharedReplay<'_> {
         (0..chunks).map(|k| self.replay_chunk(chunk(k))).sum()
     }
 
-    /// Replays one chunk of a level, last entry first; returns its half-area sum.
+    /// Replays one chunk of a level, last entry first; returns its half-area sum. Touches only
+    /// the arena nodes of the chunk's own entries and their leaf children.
     fn replay_chunk(&self, range: core::ops::Range<usize>) -> f64 {
         let node = |i: u32| {
             assert!((i as usize) < self.node_count);
@@ -247,7 +248,12 @@ impl SharedReplay<'_> {
         };
         let mut area = 0.0f64;
         for e in range.clone().rev() {
-            if let Some(ahead) = e.checked_sub(PREFETCH_DISTANCE) {
+            // Only entries of this chunk are prefetched: a node of another chunk may be
+            // written by another task right now, and no reference to it may exist here.
+            if let Some(ahead) = e
+                .checked_sub(PREFETCH_DISTANCE)
+                .filter(|a| *a >= range.start)
+            {
                 prefetch_node(node(self.internal[ahead]));
                 for c in self.children[ahead] {
                     if c & LEAF_CHILD != 0 {
