@@ -81,8 +81,9 @@ type CandidateQueries<'w, 's> = ParamSet<
     ),
 >;
 
-/// Entities that can be seen but are not in the trees: no `Aabb` (Bevy never culls them), or
-/// kept out with `AccelIgnore`.
+/// Entities a tree walk cannot find for a view, decided one by one: no `Aabb` (Bevy never
+/// culls them), kept out with `AccelIgnore`, or marked `NoFrustumCulling` (the trees may hold
+/// them, but they are visible wherever they are, and a walk only finds what is in view).
 type UntrackedQuery<'w, 's> = Query<
     'w,
     's,
@@ -90,7 +91,7 @@ type UntrackedQuery<'w, 's> = Query<
     (
         With<ViewVisibility>,
         Without<NoCpuCulling>,
-        Or<(Without<Aabb>, With<AccelIgnore>)>,
+        Or<(Without<Aabb>, With<AccelIgnore>, With<NoFrustumCulling>)>,
     ),
 >;
 
@@ -220,8 +221,29 @@ pub(crate) fn cull_views_with_trees(
                 }
             }
         }
-        for entity in untracked.iter().chain(rejected.iter()) {
-            pass.decide_exact(entity);
+        // Entities no walk finds. A rejected entity with `NoFrustumCulling` is also in
+        // `untracked`: the second visit skips it, so it is listed once.
+        let mut all = candidates.p0();
+        for entity in untracked.iter() {
+            let Ok(item) = all.get_mut(entity) else {
+                continue;
+            };
+            s.tested += 1;
+            if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, &mut class_lists) {
+                s.visible += 1;
+            }
+        }
+        for entity in rejected.iter() {
+            let Ok(item) = all.get_mut(entity) else {
+                continue;
+            };
+            let no_frustum_culling = item.8;
+            if !no_frustum_culling {
+                s.tested += 1;
+                if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, &mut class_lists) {
+                    s.visible += 1;
+                }
+            }
         }
         class_lists.flush_into(&mut visible_entities);
         // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
@@ -282,33 +304,10 @@ fn flat_pass(
 ) -> usize {
     candidates.par_iter_mut().for_each_init(
         || thread_queues.borrow_local_mut(),
-        |queue,
-         (
-            entity,
-            inherited,
-            mut view_visibility,
-            class,
-            layers,
-            aabb,
-            sphere,
-            transform,
-            no_frustum_culling,
-            has_range,
-        )| {
-            if !filter.admits(entity, inherited, layers, has_range) {
-                return;
-            }
-            if !no_frustum_culling
-                && !no_cpu_culling_view
-                && !bevy_frustum_test(frustum, aabb, sphere, transform)
-            {
-                return;
-            }
-            view_visibility.set_visible();
+        |queue, item| {
             let (lists, visible) = &mut **queue;
-            *visible += 1;
-            if let Some(class) = class {
-                lists.push(class, entity);
+            if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, lists) {
+                *visible += 1;
             }
         },
     );
@@ -321,6 +320,43 @@ fn flat_pass(
         list.sort_unstable();
     }
     visible
+}
+
+/// Decides one entity exactly as Bevy's `check_visibility_cpu_culling` does: its rules, then
+/// its frustum test unless the entity or the view opted out. Returns whether it is visible.
+#[inline]
+fn decide_like_bevy(
+    (
+        entity,
+        inherited,
+        mut view_visibility,
+        class,
+        layers,
+        aabb,
+        sphere,
+        transform,
+        no_frustum_culling,
+        has_range,
+    ): <CandidateItem as bevy::ecs::query::QueryData>::Item<'_, '_>,
+    filter: ViewFilter<'_>,
+    frustum: &Frustum,
+    no_cpu_culling_view: bool,
+    lists: &mut ClassLists,
+) -> bool {
+    if !filter.admits(entity, inherited, layers, has_range) {
+        return false;
+    }
+    if !no_frustum_culling
+        && !no_cpu_culling_view
+        && !bevy_frustum_test(frustum, aabb, sphere, transform)
+    {
+        return false;
+    }
+    view_visibility.set_visible();
+    if let Some(class) = class {
+        lists.push(class, entity);
+    }
+    true
 }
 
 /// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane

@@ -23,16 +23,20 @@ pub(crate) type DecideItem = (
     Has<VisibilityRange>,
 );
 
-/// The entities decided: those the flat pass's query holds (`GlobalTransform` included, which
-/// Bevy's own query requires).
-pub(crate) type DecideFilter = (Without<NoCpuCulling>, With<GlobalTransform>);
+/// The entities a tree walk decides: those the flat pass's query holds (`GlobalTransform`
+/// included, which Bevy's own query requires), less `NoFrustumCulling` ones, which are decided
+/// with the entities the trees do not hold (a walk would miss them outside the view).
+pub(crate) type DecideFilter = (
+    Without<NoCpuCulling>,
+    With<GlobalTransform>,
+    Without<NoFrustumCulling>,
+);
 
 /// What Bevy's exact frustum test reads.
 pub(crate) type BoundsItem = (
     Option<&'static Aabb>,
     Option<&'static Sphere>,
     &'static GlobalTransform,
-    Has<NoFrustumCulling>,
 );
 
 /// Entities whose ECS rows are fetched together before they are decided.
@@ -102,10 +106,10 @@ impl ViewPass<'_, '_, '_> {
         if !self.filter.admits(entity, inherited, layers, has_range) {
             return;
         }
-        let Ok((aabb, sphere, transform, no_frustum_culling)) = self.bounds.get(entity) else {
+        let Ok((aabb, sphere, transform)) = self.bounds.get(entity) else {
             return;
         };
-        if !no_frustum_culling && !self.no_cpu_culling_view {
+        if !self.no_cpu_culling_view {
             self.stats.tested += 1;
             if !bevy_frustum_test(self.frustum, aabb, sphere, transform) {
                 return;
