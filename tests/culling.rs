@@ -56,7 +56,7 @@ fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
 /// Builds the same scene in an app: entities of varied size, some hidden through a parent,
 /// some on other render layers, some without frustum culling (with and without an `Aabb`),
 /// some static.
-fn populate(app: &mut App, seed: u64) -> Vec<Entity> {
+fn populate(app: &mut App, seed: u64, marked: bool) -> Vec<Entity> {
     let mut rng = Rng(seed);
     let world = app.world_mut();
     let mut class = VisibilityClass::default();
@@ -110,6 +110,11 @@ fn populate(app: &mut App, seed: u64) -> Vec<Entity> {
             }
             _ => {}
         }
+        // With `require_marker`, the unmarked third stays out of the trees and must still be
+        // culled (the Bevy app ignores the marker).
+        if marked && i % 3 != 0 {
+            e.insert(AccelTracked);
+        }
         out.push(e.id());
     }
     out
@@ -145,10 +150,40 @@ fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<usize>>, Vec<boo
 
 #[test]
 fn visible_sets_equal_bevys_over_camera_paths() {
+    check_camera_paths(Variant::Default);
+}
+
+#[test]
+fn visible_sets_equal_bevys_with_required_markers() {
+    check_camera_paths(Variant::RequireMarker);
+}
+
+#[test]
+fn visible_sets_equal_bevys_while_the_plugin_pauses() {
+    check_camera_paths(Variant::Paused(9..13));
+}
+
+/// How the accel app's settings differ from the defaults.
+#[derive(Clone, PartialEq)]
+enum Variant {
+    Default,
+    /// `require_marker` on, two entities in three marked.
+    RequireMarker,
+    /// `AccelSettings::enabled` off over these frames: the trees go stale while entities move
+    /// (9..13 holds frame 9, where the parent alone moves far).
+    Paused(std::ops::Range<usize>),
+}
+
+fn check_camera_paths(variant: Variant) {
     let mut bevy_app = app(false);
     let mut accel_app = app(true);
-    let a = populate(&mut bevy_app, 3);
-    let b = populate(&mut accel_app, 3);
+    let marked = variant == Variant::RequireMarker;
+    accel_app
+        .world_mut()
+        .resource_mut::<AccelSettings>()
+        .require_marker = marked;
+    let a = populate(&mut bevy_app, 3, marked);
+    let b = populate(&mut accel_app, 3, marked);
     assert_eq!(a.len(), b.len());
     let mut rng = Rng(11);
     let mut cams: Vec<(Vec3, Vec3, f32)> = (0..2)
@@ -173,7 +208,15 @@ fn visible_sets_equal_bevys_over_camera_paths() {
     let mut rng_path = Rng(5);
     let (mut flat_views, mut tree_views, mut accepted_whole, mut reused_walks) = (0, 0, 0, 0);
     let mut step: Vec<(Vec3, Vec3, f32)> = cams.clone();
+    let paused = match &variant {
+        Variant::Paused(frames) => frames.clone(),
+        _ => 0..0,
+    };
     for frame in 0..25 {
+        accel_app
+            .world_mut()
+            .resource_mut::<AccelSettings>()
+            .enabled = !paused.contains(&frame);
         // Move the cameras along a path and the moving parent; identical in both apps. Every
         // third frame nothing moves but some entities are hidden or shown: the culling may
         // reuse its last walk then, and must still see the visibility change.
@@ -257,7 +300,7 @@ fn visible_sets_equal_bevys_over_camera_paths() {
     // Both the tree traversal and the flat pass (views that saw most of the world) ran; the
     // narrow view keeps the tree path busy every frame.
     assert!(
-        flat_views > 0 && tree_views >= 25,
+        flat_views > 0 && tree_views >= 25 - paused.len(),
         "flat {flat_views}, tree {tree_views}"
     );
     let stats = accel_app.world().resource::<CullingStats>();

@@ -10,6 +10,7 @@ mod class_lists;
 mod slot_order;
 mod system;
 mod tree_pass;
+mod untracked;
 mod view_walk;
 
 use crate::AccelSystems;

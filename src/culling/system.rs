@@ -3,9 +3,8 @@
 use super::class_lists::ClassLists;
 use super::slot_order::FoundSlots;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
+use super::untracked::UntrackedEntities;
 use super::view_walk::ViewWalk;
-use crate::components::AccelIgnore;
-use crate::sync::RejectedEntities;
 use crate::trees::AccelTrees;
 use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
@@ -41,7 +40,7 @@ pub struct CullingStats {
     pub time: Duration,
 }
 
-/// Above this fraction of tracked entities visible (in the view's previous frame), a flat
+/// Above this fraction of entities visible (in the view's previous frame), a flat
 /// pass over all entities beats the tree: a tree hit costs an entity lookup, about 2x (at
 /// first 2.5x) what the linear scan spends per entity, so the crossover sits near 20-50%
 /// (measured in `benches/culling.rs`; the lower end is kept, where both cost about the same).
@@ -81,20 +80,6 @@ type CandidateQueries<'w, 's> = ParamSet<
     ),
 >;
 
-/// Entities a tree walk cannot find for a view, decided one by one: no `Aabb` (Bevy never
-/// culls them), kept out with `AccelIgnore`, or marked `NoFrustumCulling` (the trees may hold
-/// them, but they are visible wherever they are, and a walk only finds what is in view).
-type UntrackedQuery<'w, 's> = Query<
-    'w,
-    's,
-    Entity,
-    (
-        With<ViewVisibility>,
-        Without<NoCpuCulling>,
-        Or<(Without<Aabb>, With<AccelIgnore>, With<NoFrustumCulling>)>,
-    ),
->;
-
 /// The view frustum's planes as the trees test them. Bevy culls against the near plane but
 /// never the far one, so the far half-space is replaced by one containing all space.
 fn tree_planes(frustum: &Frustum) -> [Vec4; 6] {
@@ -107,11 +92,10 @@ fn tree_planes(frustum: &Frustum) -> [Vec4; 6] {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn cull_views_with_trees(
     trees: Res<AccelTrees>,
-    rejected: Res<RejectedEntities>,
     ranges: Option<Res<VisibleEntityRanges>>,
     mut views: Query<ViewItem>,
     mut candidates: CandidateQueries,
-    untracked: UntrackedQuery,
+    untracked: UntrackedEntities,
     mut stats: ResMut<CullingStats>,
     mut thread_queues: Local<Parallel<(ClassLists, usize)>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
@@ -137,9 +121,11 @@ pub(crate) fn cull_views_with_trees(
         s.views += 1;
         visible_entities.clear_all();
         let view_mask = view_layers.cloned().unwrap_or_default();
-        if visible_fraction
-            .get(&view)
-            .is_some_and(|f| *f > FLAT_PASS_ABOVE)
+        // Stale trees (the plugin is switched off) cannot be walked: Bevy's pass then.
+        if !untracked.trees_current()
+            || visible_fraction
+                .get(&view)
+                .is_some_and(|f| *f > FLAT_PASS_ABOVE)
         {
             s.flat_views += 1;
             let visible = flat_pass(
@@ -154,9 +140,10 @@ pub(crate) fn cull_views_with_trees(
                 frustum,
                 no_cpu_culling_view,
             );
+            let population = candidates.p0().iter().len();
             s.visible += visible;
-            s.tested += candidates.p0().iter().len();
-            visible_fraction.insert(view, visible as f32 / tracked);
+            s.tested += population;
+            visible_fraction.insert(view, visible as f32 / population.max(1) as f32);
             continue;
         }
         let visible_before = s.visible;
@@ -221,8 +208,9 @@ pub(crate) fn cull_views_with_trees(
                 }
             }
         }
-        // Entities no walk finds. A rejected entity with `NoFrustumCulling` is also in
-        // `untracked`: the second visit skips it, so it is listed once.
+        // The fraction that chooses the pass counts only what the walk found: entities outside
+        // the trees cost the same either way (`NoFrustumCulling` ones are always visible).
+        visible_fraction.insert(view, (s.visible - visible_before) as f32 / tracked);
         let mut all = candidates.p0();
         for entity in untracked.iter() {
             let Ok(item) = all.get_mut(entity) else {
@@ -233,25 +221,12 @@ pub(crate) fn cull_views_with_trees(
                 s.visible += 1;
             }
         }
-        for entity in rejected.iter() {
-            let Ok(item) = all.get_mut(entity) else {
-                continue;
-            };
-            let no_frustum_culling = item.8;
-            if !no_frustum_culling {
-                s.tested += 1;
-                if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, &mut class_lists) {
-                    s.visible += 1;
-                }
-            }
-        }
         class_lists.flush_into(&mut visible_entities);
         // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
         // already; the sort finds the runs in linear time).
         for list in visible_entities.entities.values_mut() {
             list.sort_unstable();
         }
-        visible_fraction.insert(view, (s.visible - visible_before) as f32 / tracked);
     }
     visible_fraction.retain(|view, _| views.contains(*view));
     walks.retain(|view, _| views.contains(*view));
