@@ -7,6 +7,8 @@
 //! on entities whose leaf straddles a plane, so its results are Bevy's.
 
 mod class_lists;
+#[cfg(feature = "light_culling")]
+mod light_views;
 mod slot_order;
 mod system;
 mod tree_pass;
@@ -49,5 +51,51 @@ impl Plugin for AccelCullingPlugin {
             ScheduleCleanupPolicy::RemoveSystemsOnly,
         )
         .ok();
+        #[cfg(feature = "light_culling")]
+        replace_light_culling(app);
     }
+}
+
+/// Swaps bevy_light's shadow-caster culling for the trees', if bevy_light's `LightPlugin`
+/// added it (without it there are no light views to cull).
+#[cfg(feature = "light_culling")]
+fn replace_light_culling(app: &mut App) {
+    use bevy::light::{
+        SimulationLightSystems, check_dir_light_mesh_visibility, check_point_light_mesh_visibility,
+    };
+    let mut removed = 0;
+    for result in [
+        app.remove_systems_in_set(
+            PostUpdate,
+            check_dir_light_mesh_visibility,
+            ScheduleCleanupPolicy::RemoveSystemsOnly,
+        ),
+        app.remove_systems_in_set(
+            PostUpdate,
+            check_point_light_mesh_visibility,
+            ScheduleCleanupPolicy::RemoveSystemsOnly,
+        ),
+    ] {
+        removed += result.unwrap_or(0);
+    }
+    if removed == 0 {
+        return;
+    }
+    // Bevy's ordering for these systems: after the camera views (lights may only add
+    // visibility), before entities no view saw are marked hidden.
+    app.add_systems(
+        PostUpdate,
+        (
+            light_views::cull_directional_lights,
+            light_views::cull_point_and_spot_lights,
+        )
+            .chain()
+            .in_set(SimulationLightSystems::CheckLightVisibility)
+            .after(VisibilitySystems::CalculateBounds)
+            .after(TransformSystems::Propagate)
+            .after(SimulationLightSystems::UpdateLightFrusta)
+            .after(VisibilitySystems::CheckVisibility)
+            .after(AccelSystems::Stats)
+            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible),
+    );
 }

@@ -36,8 +36,16 @@ pub struct CullingStats {
     /// Views whose tree walk was reused from the last frame, because neither their frustum
     /// nor the trees had changed (the entities found are still decided one by one).
     pub reused_walks: usize,
-    /// Time spent in the culling system.
+    /// Time spent in the camera culling system.
     pub time: Duration,
+    /// Shadow views of lights culled on the trees (point light cube faces, spot light
+    /// frusta, directional light cascades per camera); cargo feature `light_culling`.
+    pub light_views: usize,
+    /// Entities decided one by one for those views: what their tree walks found, plus the
+    /// entities no walk finds.
+    pub light_candidates: usize,
+    /// Time spent culling light views.
+    pub light_time: Duration,
 }
 
 /// Above this fraction of entities visible (in the view's previous frame), a flat
@@ -80,10 +88,29 @@ type CandidateQueries<'w, 's> = ParamSet<
     ),
 >;
 
+/// A half-space of a Bevy frustum as the trees must test it to keep every entity Bevy's
+/// oriented-box test keeps. Bevy calls a box outside when `normal_d . (center, 1) + r <= 0`:
+/// - with a zero normal (an unset `Frustum`, before a camera's first update) `r` is 0, so
+///   every box is outside unless `d > 0`; the trees' plane type would keep everything;
+/// - with a NaN or infinite normal the comparison is false or undefined: nothing may be
+///   dropped, so such a half-space holds all space.
+pub(crate) fn tree_plane(v: Vec4) -> Vec4 {
+    const ALL_SPACE: Vec4 = Vec4::new(0.0, 0.0, 0.0, 1.0);
+    const NO_SPACE: Vec4 = Vec4::new(0.0, 0.0, 0.0, -1.0);
+    let normal = v.truncate();
+    if !normal.is_finite() || v.w.is_nan() {
+        ALL_SPACE
+    } else if normal == bevy::math::Vec3::ZERO {
+        if v.w > 0.0 { ALL_SPACE } else { NO_SPACE }
+    } else {
+        v
+    }
+}
+
 /// The view frustum's planes as the trees test them. Bevy culls against the near plane but
 /// never the far one, so the far half-space is replaced by one containing all space.
 fn tree_planes(frustum: &Frustum) -> [Vec4; 6] {
-    let mut planes = frustum.half_spaces.map(|h| h.normal_d());
+    let mut planes = frustum.half_spaces.map(|h| tree_plane(h.normal_d()));
     planes[AccelFrustum::FAR] = Vec4::new(0.0, 0.0, 0.0, 1.0);
     planes
 }

@@ -1,0 +1,339 @@
+//! `AccelCullingPlugin`'s light views against bevy_light's own shadow-caster culling
+//! (`check_point_light_mesh_visibility`, `check_dir_light_mesh_visibility`): the same scene,
+//! lights and camera paths in two apps, one with each; every light view's caster lists and
+//! every entity's `ViewVisibility` must agree.
+
+use bevy::camera::primitives::Aabb;
+use bevy::camera::visibility::{
+    CascadesVisibleEntities, CubemapVisibleEntities, NoAutoAabb, NoFrustumCulling, RenderLayers,
+    VisibilitySystems, VisibleEntities, VisibleMeshEntities,
+};
+use bevy::light::cluster::ClusterVisibilityClass;
+use bevy::light::{LightPlugin, NotShadowCaster, SimulationLightSystems};
+use bevy::prelude::*;
+use bevy_accel::AccelCullingPlugin;
+use bevy_accel::culling::CullingStats;
+use bevy_accel::prelude::*;
+use std::any::TypeId;
+use std::collections::HashMap;
+
+mod common;
+use common::headless_app;
+
+/// Which of the test's cameras or lights an entity is (entity ids differ between the apps).
+#[derive(Component, Clone, Copy)]
+struct Tag(usize);
+
+/// Which caster an entity is, by spawn order.
+#[derive(Component, Clone, Copy)]
+struct Caster(usize);
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * ((self.next() >> 8) as f32 / (1 << 24) as f32)
+    }
+    fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
+    }
+}
+
+/// The lights clustering assigns to views.
+type ClusteredLight = Or<(With<PointLight>, With<SpotLight>)>;
+
+/// Stands in for light clustering (which needs the renderer's settings): every point and spot
+/// light is listed in every camera's view, as a light near the cameras would be.
+fn list_lights_in_views(
+    mut views: Query<&mut VisibleEntities, With<Camera>>,
+    lights: Query<Entity, ClusteredLight>,
+) {
+    for mut visible in &mut views {
+        let list = visible.get_mut(TypeId::of::<ClusterVisibilityClass>());
+        list.clear();
+        list.extend(lights.iter());
+        list.sort_unstable();
+    }
+}
+
+fn app(ours: bool) -> App {
+    let mut app = headless_app();
+    // bevy_light watches image assets (atmosphere textures) and draws light gizmos; the
+    // default plugins would bring both.
+    app.init_asset::<Image>()
+        .add_plugins(bevy::gizmos::GizmoPlugin);
+    app.add_plugins(LightPlugin).add_systems(
+        PostUpdate,
+        list_lights_in_views
+            .after(VisibilitySystems::CheckVisibility)
+            .before(SimulationLightSystems::UpdateLightFrusta)
+            .before(SimulationLightSystems::CheckLightVisibility),
+    );
+    if ours {
+        app.add_plugins(AccelCullingPlugin);
+    }
+    app.finish();
+    app
+}
+
+/// Casters of varied size and kind; returns the moving parent.
+fn populate(app: &mut App, seed: u64) -> Entity {
+    let mut rng = Rng(seed);
+    let world = app.world_mut();
+    let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
+    let moving_parent = world
+        .spawn((Transform::from_xyz(5.0, 0.0, 0.0), Visibility::Visible))
+        .id();
+    for i in 0..3000 {
+        let mut t = Transform::from_translation(rng.vec3(120.0))
+            .with_rotation(Quat::from_rotation_y(rng.range(0.0, 6.0)))
+            .with_scale(Vec3::new(
+                rng.range(0.1, 4.0),
+                rng.range(0.1, 4.0),
+                rng.range(0.1, 4.0),
+            ));
+        let half = Vec3::new(
+            rng.range(0.1, 3.0),
+            rng.range(0.1, 3.0),
+            rng.range(0.1, 3.0),
+        );
+        if i % 13 == 12 {
+            // High above the scene, between the sun and the cameras' cascades: shadow casters
+            // there still cast into the cascades (about a hundred of them do here).
+            t.translation.y += 400.0;
+        }
+        let mut e = world.spawn((
+            t,
+            Visibility::Inherited,
+            Mesh3d::default(),
+            NoAutoAabb,
+            Aabb::from_min_max(-half, half),
+            Caster(i),
+        ));
+        match i % 13 {
+            0 => {
+                e.insert(ChildOf(hidden_parent));
+            }
+            1 | 7 => {
+                e.insert(ChildOf(moving_parent));
+            }
+            2 => {
+                e.insert(RenderLayers::layer(1));
+            }
+            3 => {
+                e.insert(AccelStatic);
+            }
+            4 => {
+                e.remove::<Aabb>();
+                e.insert(NoFrustumCulling);
+            }
+            5 => {
+                e.insert(NoFrustumCulling);
+            }
+            6 => {
+                e.insert(NotShadowCaster);
+            }
+            8 => {
+                e.insert(AccelIgnore);
+            }
+            _ => {}
+        }
+    }
+    moving_parent
+}
+
+/// Spawns the cameras and lights.
+fn lights_and_cameras(app: &mut App) {
+    let world = app.world_mut();
+    for i in 0..2 {
+        world.spawn((
+            Camera::default(),
+            Projection::Perspective(PerspectiveProjection {
+                far: 150.0,
+                ..default()
+            }),
+            Transform::from_xyz(60.0 * i as f32, 10.0, 80.0).looking_at(Vec3::ZERO, Vec3::Y),
+            Tag(i),
+        ));
+    }
+    let point = |range: f32| PointLight {
+        shadow_maps_enabled: true,
+        range,
+        ..default()
+    };
+    world.spawn((point(40.0), Transform::from_xyz(10.0, 5.0, -20.0), Tag(10)));
+    world.spawn((
+        point(25.0),
+        Transform::from_xyz(-50.0, 0.0, 30.0),
+        RenderLayers::from_layers(&[0, 1]),
+        Tag(11),
+    ));
+    world.spawn((
+        SpotLight {
+            shadow_maps_enabled: true,
+            range: 90.0,
+            outer_angle: 0.6,
+            inner_angle: 0.3,
+            ..default()
+        },
+        Transform::from_xyz(0.0, 60.0, 0.0).looking_at(Vec3::new(20.0, 0.0, 10.0), Vec3::X),
+        Tag(20),
+    ));
+    world.spawn((
+        DirectionalLight {
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(0.0, 50.0, 0.0).looking_at(Vec3::new(1.0, 0.0, 2.0), Vec3::Y),
+        Tag(30),
+    ));
+}
+
+/// Every light view's casters (as spawn indices) keyed by light tag, face or camera tag and
+/// cascade; and every caster's `ViewVisibility`.
+type Views = HashMap<(usize, usize, usize), Vec<usize>>;
+
+fn light_views(app: &mut App) -> (Views, Vec<bool>) {
+    let world = app.world_mut();
+    let mut casters: Vec<(usize, bool)> = world
+        .query::<(&Caster, &ViewVisibility)>()
+        .iter(world)
+        .map(|(c, v)| (c.0, v.get()))
+        .collect();
+    casters.sort_unstable_by_key(|c| c.0);
+    let index: HashMap<Entity, usize> = world
+        .query::<(Entity, &Caster)>()
+        .iter(world)
+        .map(|(e, c)| (e, c.0))
+        .collect();
+    let tags: HashMap<Entity, usize> = world
+        .query::<(Entity, &Tag)>()
+        .iter(world)
+        .map(|(e, t)| (e, t.0))
+        .collect();
+    let list = |v: &VisibleMeshEntities| -> Vec<usize> {
+        let mut l: Vec<usize> = v.entities.iter().map(|e| index[e]).collect();
+        l.sort_unstable();
+        l
+    };
+    let mut views = Views::new();
+    for (tag, cube) in world.query::<(&Tag, &CubemapVisibleEntities)>().iter(world) {
+        for (face, v) in cube.iter().enumerate() {
+            views.insert((tag.0, face, 0), list(v));
+        }
+    }
+    for (tag, spot) in world
+        .query_filtered::<(&Tag, &VisibleMeshEntities), With<SpotLight>>()
+        .iter(world)
+    {
+        views.insert((tag.0, 0, 0), list(spot));
+    }
+    for (tag, cascades) in world
+        .query::<(&Tag, &CascadesVisibleEntities)>()
+        .iter(world)
+    {
+        for (view, lists) in &cascades.entities {
+            for (cascade, v) in lists.iter().enumerate() {
+                views.insert((tag.0, tags[view], cascade), list(v));
+            }
+        }
+    }
+    (views, casters.into_iter().map(|c| c.1).collect())
+}
+
+#[test]
+fn light_views_equal_bevys_over_moving_lights() {
+    let mut bevy_app = app(false);
+    let mut accel_app = app(true);
+    let parents = [populate(&mut bevy_app, 9), populate(&mut accel_app, 9)];
+    lights_and_cameras(&mut bevy_app);
+    lights_and_cameras(&mut accel_app);
+    let mut rng = Rng(21);
+    let mut seen = 0;
+    for frame in 0..16 {
+        let light_step = rng.vec3(15.0);
+        let parent_step = rng.vec3(20.0);
+        let turn = rng.range(-0.3, 0.3);
+        for (app, parent) in [(&mut bevy_app, parents[0]), (&mut accel_app, parents[1])] {
+            let world = app.world_mut();
+            // Every fourth frame nothing moves; some casters are hidden or shown instead.
+            if frame % 4 == 3 {
+                let mut q = world.query::<(&Caster, &mut Visibility)>();
+                for (c, mut v) in q.iter_mut(world) {
+                    if (c.0 + frame) % 9 == 0 {
+                        *v = if (c.0 + frame) % 2 == 0 {
+                            Visibility::Hidden
+                        } else {
+                            Visibility::Inherited
+                        };
+                    }
+                }
+            } else {
+                let mut q = world.query::<(&Tag, &mut Transform)>();
+                for (tag, mut t) in q.iter_mut(world) {
+                    match tag.0 {
+                        10 | 11 | 20 => t.translation += light_step,
+                        30 => t.rotate_y(turn),
+                        _ => t.rotate_around(Vec3::ZERO, Quat::from_rotation_y(turn)),
+                    }
+                }
+                world.get_mut::<Transform>(parent).unwrap().translation += parent_step;
+            }
+            app.update();
+        }
+        let (want, want_flags) = light_views(&mut bevy_app);
+        let (got, got_flags) = light_views(&mut accel_app);
+        let mut keys: Vec<_> = want.keys().copied().collect();
+        keys.sort_unstable();
+        assert_eq!(
+            keys.len(),
+            got.len(),
+            "frame {frame}: light views differ in number"
+        );
+        for key in keys {
+            let (w, g) = (&want[&key], &got[&key]);
+            let missing: Vec<_> = w.iter().filter(|i| !g.contains(i)).take(5).collect();
+            let extra: Vec<_> = g.iter().filter(|i| !w.contains(i)).take(5).collect();
+            assert!(
+                w == g,
+                "frame {frame} view {key:?}: {} vs {} casters; missing {missing:?}, extra {extra:?}",
+                w.len(),
+                g.len()
+            );
+            seen += w.len();
+        }
+        let differing = want_flags
+            .iter()
+            .zip(&got_flags)
+            .filter(|(a, b)| a != b)
+            .count();
+        let only_bevy = want_flags
+            .iter()
+            .zip(&got_flags)
+            .filter(|(a, b)| **a && !**b)
+            .count();
+        assert_eq!(
+            differing, 0,
+            "frame {frame}: ViewVisibility differs for {differing} casters ({only_bevy} visible only in Bevy's app)"
+        );
+    }
+    assert!(seen > 0, "the lights must see casters");
+    let stats = accel_app.world().resource::<CullingStats>();
+    assert!(
+        stats.light_views >= 6 + 6 + 1 + 2,
+        "light views culled on the trees: {}",
+        stats.light_views
+    );
+    assert!(
+        stats.light_candidates < 3000 * stats.light_views / 2,
+        "the walks must narrow the candidates: {} over {} views",
+        stats.light_candidates,
+        stats.light_views
+    );
+}
