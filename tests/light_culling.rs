@@ -98,11 +98,16 @@ fn populate(app: &mut App, seed: u64) -> Entity {
                 rng.range(0.1, 4.0),
                 rng.range(0.1, 4.0),
             ));
-        let half = Vec3::new(
+        let mut half = Vec3::new(
             rng.range(0.1, 3.0),
             rng.range(0.1, 3.0),
             rng.range(0.1, 3.0),
         );
+        if i % 13 == 9 {
+            // Long sticks: Bevy's light-sphere test keeps some whose every point is out of
+            // the light's range, and the walks must find them too.
+            half = Vec3::new(rng.range(10.0, 30.0), 0.2, 0.2);
+        }
         if i % 13 == 12 {
             // High above the scene, between the sun and the cameras' cascades: shadow casters
             // there still cast into the cascades (about a hundred of them do here).

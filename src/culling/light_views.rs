@@ -9,10 +9,13 @@
 //! then behind that plane too, and Bevy's test (one plane at a time) rejects it as well. So the
 //! walk never loses an entity Bevy would keep, and the results are Bevy's.
 
+use super::slot_order::FoundSlots;
 use super::system::{CullingStats, tree_plane};
 use super::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
-use accel::{Frustum as AccelFrustum, SpatialQuery};
+use accel::dynamic::StaticDynamicPair;
+use accel::query::binary::for_each_leaf_primitive;
+use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, CascadesFrusta, CubemapFrusta, Frustum, Sphere};
 use bevy::camera::visibility::{
     CascadesVisibleEntities, CubemapVisibleEntities, NoCpuCulling, NoFrustumCulling, RenderLayers,
@@ -28,6 +31,7 @@ use bevy::math::{Affine3A, Vec3A, Vec4};
 use bevy::mesh::Mesh3d;
 use bevy::prelude::*;
 use core::any::TypeId;
+use core::ops::ControlFlow;
 use std::time::Instant;
 
 /// What deciding a shadow caster reads and writes: the item of Bevy's own query.
@@ -90,28 +94,42 @@ fn light_planes(frustum: &Frustum, near: bool) -> [Vec4; 6] {
     planes
 }
 
+/// Whether Bevy's light-sphere test (`Sphere::intersects_obb`) can pass for an entity whose
+/// box lies in `b`. That test projects the entity's oriented box on one axis only, the line from
+/// the light to the box's center, so it passes for long boxes whose every point is out of
+/// range: a plain sphere-box overlap would drop entities Bevy keeps. What does hold: the test
+/// passes only if the box's center lies within the range plus the box's largest half-extent
+/// along that axis, which is at most the half-diagonal of any box holding the entity. Both
+/// the center and that box lie in `b`, so `b` can be dropped when it is farther from the light
+/// than the range plus its own half-diagonal (with a little slack for rounding).
+fn light_sphere_may_reach(sphere: &Sphere, b: &accel::Aabb) -> bool {
+    let reach = (sphere.radius + b.half_extents().length()) * (1.0 + 1e-3);
+    b.distance_squared_to_point(sphere.center) <= reach * reach
+}
+
 /// The entities one light view decides, each once.
 #[derive(Default)]
 pub(crate) struct LightCandidates {
-    slots: Vec<u32>,
+    found: FoundSlots,
     /// Found by the walks, in slot order. `NoFrustumCulling` ones among them are skipped: they
     /// come again in `others`.
     walked: Vec<Entity>,
+    /// Unused: light walks mark every find for the exact test.
+    proved_inside: Vec<Entity>,
     /// Everything a walk cannot find (see [`UntrackedEntities`]), or, while the trees are
     /// stale, every caster.
     others: Vec<Entity>,
 }
 
 impl LightCandidates {
-    /// Gathers the candidates of a view made of `frusta`, or every caster when the trees are
-    /// not current.
-    fn gather<'a>(
+    /// Gathers the candidates that `walk` finds in the trees (it pushes slots, repeats
+    /// allowed), or every caster when the trees are not current.
+    fn gather(
         &mut self,
         trees: &AccelTrees,
         untracked: &UntrackedEntities,
         casters: &Casters,
-        frusta: impl Iterator<Item = &'a Frustum>,
-        near: bool,
+        walk: impl FnOnce(&StaticDynamicPair, &mut FoundSlots),
     ) {
         self.walked.clear();
         self.others.clear();
@@ -119,18 +137,16 @@ impl LightCandidates {
             self.others.extend(casters.iter().map(|item| item.0));
             return;
         }
-        self.slots.clear();
-        for frustum in frusta {
-            let planes = AccelFrustum::from_planes(light_planes(frustum, near));
-            trees
-                .query()
-                .for_each_in_frustum(&planes, |slot, _| self.slots.push(slot));
-        }
-        // Slot order is table order: the decisions below read the rows nearly in sequence.
-        self.slots.sort_unstable();
-        self.slots.dedup();
-        self.walked
-            .extend(self.slots.iter().filter_map(|&slot| trees.entity(slot)));
+        self.found.clear();
+        walk(trees.query(), &mut self.found);
+        // Slot order is table order, so the decisions read the rows nearly in sequence; views
+        // made of several frusta find an entity once per frustum, next to each other here.
+        self.found.drain_entities(
+            trees.slot_entities(),
+            &mut self.proved_inside,
+            &mut self.walked,
+        );
+        self.walked.dedup();
         self.others.extend(untracked.iter());
     }
 
@@ -143,6 +159,19 @@ impl LightCandidates {
     fn len(&self) -> usize {
         self.walked.len() + self.others.len()
     }
+}
+
+/// Pushes every slot whose tree box passes `accept` (which must fail for every box inside a
+/// box it fails).
+fn walk_where(
+    pair: &StaticDynamicPair,
+    found: &mut FoundSlots,
+    accept: impl FnMut(&accel::Aabb) -> bool,
+) {
+    for_each_leaf_primitive(pair, accept, |slot| {
+        found.push(slot, true);
+        ControlFlow::Continue(())
+    });
 }
 
 /// Bevy's rules for a shadow caster before any frustum test.
@@ -258,7 +287,11 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: point_light.range,
                 };
-                candidates.gather(&trees, &untracked, &casters, frusta.iter(), true);
+                // The six faces together cover nearly all space (Bevy bounds them with one far
+                // plane), so the light sphere alone is walked; faces are tested per entity.
+                candidates.gather(&trees, &untracked, &casters, |pair, found| {
+                    walk_where(pair, found, |b| light_sphere_may_reach(&sphere, b));
+                });
                 let rules = CasterRules {
                     mask: layers.unwrap_or_default(),
                     ranges,
@@ -292,13 +325,13 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: spot_light.range,
                 };
-                candidates.gather(
-                    &trees,
-                    &untracked,
-                    &casters,
-                    core::iter::once(frustum),
-                    true,
-                );
+                let planes = AccelFrustum::from_planes(light_planes(frustum, true));
+                candidates.gather(&trees, &untracked, &casters, |pair, found| {
+                    walk_where(pair, found, |b| {
+                        light_sphere_may_reach(&sphere, b)
+                            && planes.classify_aabb(b) != Containment::Outside
+                    });
+                });
                 let rules = CasterRules {
                     mask: layers.unwrap_or_default(),
                     ranges,
@@ -362,7 +395,12 @@ pub(crate) fn cull_directional_lights(
             for list in lists.iter_mut() {
                 list.entities.clear();
             }
-            candidates.gather(&trees, &untracked, &casters, view_frusta.iter(), false);
+            candidates.gather(&trees, &untracked, &casters, |pair, found| {
+                for frustum in view_frusta {
+                    let planes = AccelFrustum::from_planes(light_planes(frustum, false));
+                    pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
+                }
+            });
             decide_cascades(&candidates, &mut casters, &rules, view_frusta, lists);
             for list in lists.iter_mut() {
                 list.shrink();
