@@ -1,11 +1,16 @@
 //! Thousands of moving cubes kept in the trees by `AccelPlugin`; the cube under the cursor (or
-//! under the screen centre) is found through the trees every frame and highlighted.
+//! under the screen centre) is found through the trees every frame and highlighted. The camera
+//! and the shadow views of the sun and of a point light are culled on the trees
+//! (`AccelCullingPlugin`).
 //!
-//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` saves a frame and exits.
+//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` saves a frame and exits (the cubes'
+//! motion then follows the frame count, not the clock, so runs can be compared). With
+//! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison.
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::PrimaryWindow;
+use bevy_accel::AccelCullingPlugin;
 use bevy_accel::accel::{Ray, SpatialQuery};
 use bevy_accel::prelude::*;
 
@@ -32,9 +37,12 @@ struct Highlighted(Option<Entity>);
 struct Target(Entity, Vec3);
 
 fn main() -> AppExit {
-    App::new()
-        .add_plugins((DefaultPlugins, AccelPlugin::default()))
-        .init_resource::<Highlighted>()
+    let mut app = App::new();
+    app.add_plugins((DefaultPlugins, AccelPlugin::default()));
+    if std::env::var_os("ACCEL_BEVY_CULLING").is_none() {
+        app.add_plugins(AccelCullingPlugin);
+    }
+    app.init_resource::<Highlighted>()
         .add_systems(Startup, setup)
         .add_systems(Update, (bob, screenshot_and_exit))
         .add_systems(
@@ -83,8 +91,29 @@ fn setup(
         commands.insert_resource(target);
     }
     commands.spawn((
-        DirectionalLight::default(),
+        DirectionalLight {
+            shadow_maps_enabled: true,
+            ..default()
+        },
         Transform::from_xyz(3.0, 10.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    commands.spawn((
+        PointLight {
+            shadow_maps_enabled: true,
+            intensity: 4_000_000.0,
+            range: 18.0,
+            color: Color::srgb(1.0, 0.8, 0.6),
+            ..default()
+        },
+        Transform::from_xyz(-12.0, 4.0, 8.0),
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(80.0, 80.0))),
+        MeshMaterial3d(materials.add(Color::srgb(0.5, 0.5, 0.5))),
+        Transform::from_xyz(0.0, -2.0, 0.0),
+        // The floor only receives shadows: kept out of the trees, so the pointer never
+        // selects it (Bevy's own tests cull it).
+        AccelIgnore,
     ));
     commands.spawn((
         Camera3d::default(),
@@ -92,8 +121,13 @@ fn setup(
     ));
 }
 
-fn bob(time: Res<Time>, mut q: Query<(&Bob, &mut Transform)>) {
-    let t = time.elapsed_secs();
+fn bob(time: Res<Time>, mut frame: Local<u32>, mut q: Query<(&Bob, &mut Transform)>) {
+    *frame += 1;
+    let t = if std::env::var_os("ACCEL_SCREENSHOT").is_some() {
+        *frame as f32 / 30.0
+    } else {
+        time.elapsed_secs()
+    };
     for (b, mut tf) in &mut q {
         tf.translation = b.home + Vec3::Y * (t * 2.0 + b.phase).sin() * 1.5;
     }
