@@ -31,7 +31,8 @@ use bevy::prelude::*;
 pub struct AccelPickingCamera;
 
 /// Runtime settings of the [`AccelPickingPlugin`] backend (those of Bevy's
-/// `MeshPickingSettings`).
+/// `MeshPickingSettings`, which this backend does not read; likewise it looks for
+/// [`AccelPickingCamera`], not `MeshPickingCamera`).
 #[derive(Resource, Clone, Reflect)]
 #[reflect(Resource, Default)]
 pub struct AccelPickingSettings {

@@ -83,8 +83,19 @@ enum Target {
 /// [`AccelSettings::require_marker`](crate::AccelSettings), those without
 /// [`AccelTracked`](crate::AccelTracked)). Triangles are tested with the watertight test, in
 /// the mesh's space, through a BVH per mesh asset cached in [`AccelMeshCache`]. Meshes that
-/// cannot be read (not a triangle list, render-world only) are hit on their `Aabb` instead of
-/// being skipped, with one warning per asset.
+/// cannot be read (not a triangle list, render-world only, an index out of range) are hit on
+/// their `Aabb` instead of being skipped, with one warning per asset.
+///
+/// Where results can differ from `MeshRayCast`, by design:
+/// - entities are where the sync last placed them (see [`AccelTrees`]): a transform written
+///   after `AccelSystems::Sync`, a static entity moved while
+///   [`AccelSettings::watch_static_motion`](crate::AccelSettings) is off, or any motion while
+///   [`AccelSettings::enabled`](crate::AccelSettings) is off, is seen only once synced;
+/// - a mesh asset edited or removed this frame is seen from the next (see [`AccelMeshCache`]);
+/// - the watertight triangle test has no epsilon: triangles too small or thin for Bevy's
+///   Möller-Trumbore test (determinant below `f32::EPSILON`) are hit, and rays through a
+///   shared edge never fall between its triangles; where two triangles tie, the one reported
+///   may differ (same distance and point).
 ///
 /// Requires [`AccelPlugin`](crate::AccelPlugin) and
 /// [`AccelPickingPlugin`](super::AccelPickingPlugin).
