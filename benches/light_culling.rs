@@ -5,6 +5,9 @@
 //!   faces each);
 //! - one directional light with Bevy's default four cascades over one camera.
 //!
+//! Ours also runs with the lights moving by a hair each frame, so that no light view can keep
+//! its last walk.
+//!
 //! Bevy's figure is the time of its two systems run alone in a schedule of their own after
 //! each frame (they spread their loops over the compute pool); ours is the time our two
 //! systems report in `CullingStats::light_time` (one thread).
@@ -146,6 +149,18 @@ fn set_scenario(app: &mut App, scenario: Scenario) {
     app.update();
 }
 
+/// Moves every light by a hair, back and forth.
+fn nudge_lights(app: &mut App, frame: u32) {
+    let step = if frame % 2 == 0 { 1e-3 } else { -1e-3 };
+    let world = app.world_mut();
+    let mut lights =
+        world.query_filtered::<&mut Transform, Or<(With<PointLight>, With<DirectionalLight>)>>();
+    for mut t in lights.iter_mut(world) {
+        t.translation.x += step;
+        t.rotate_y(step);
+    }
+}
+
 fn bevy_time(app: &mut App) -> Duration {
     app.update();
     let start = Instant::now();
@@ -178,6 +193,26 @@ fn bench(c: &mut Criterion) {
                 b.iter_custom(|iters| {
                     (0..iters)
                         .map(|_| {
+                            accel_app.update();
+                            accel_app.world().resource::<CullingStats>().light_time
+                        })
+                        .sum()
+                })
+            });
+            let reused = accel_app
+                .world()
+                .resource::<CullingStats>()
+                .reused_light_walks;
+            println!("{label}, still lights: {reused} light views kept their walk");
+            // The lights move by a hair every frame: nothing about the last frame's walks
+            // can be kept.
+            let mut frame = 0u32;
+            g.bench_function(BenchmarkId::new("accel, moving lights", &label), |b| {
+                b.iter_custom(|iters| {
+                    (0..iters)
+                        .map(|_| {
+                            frame += 1;
+                            nudge_lights(&mut accel_app, frame);
                             accel_app.update();
                             accel_app.world().resource::<CullingStats>().light_time
                         })

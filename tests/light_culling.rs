@@ -260,7 +260,7 @@ fn light_views_equal_bevys_over_moving_lights() {
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
     let mut rng = Rng(21);
-    let mut seen = 0;
+    let (mut seen, mut reused) = (0, 0);
     for frame in 0..16 {
         let light_step = rng.vec3(15.0);
         let parent_step = rng.vec3(20.0);
@@ -280,18 +280,26 @@ fn light_views_equal_bevys_over_moving_lights() {
                     }
                 }
             } else {
-                let mut q = world.query::<(&Tag, &mut Transform)>();
-                for (tag, mut t) in q.iter_mut(world) {
-                    match tag.0 {
-                        10 | 11 | 20 => t.translation += light_step,
-                        30 => t.rotate_y(turn),
-                        _ => t.rotate_around(Vec3::ZERO, Quat::from_rotation_y(turn)),
+                // Every fourth frame, one after the still one, only the parent moves: the
+                // trees change under still lights, whose kept walks must then be dropped.
+                if frame % 4 != 0 {
+                    let mut q = world.query::<(&Tag, &mut Transform)>();
+                    for (tag, mut t) in q.iter_mut(world) {
+                        match tag.0 {
+                            10 | 11 | 20 => t.translation += light_step,
+                            30 => t.rotate_y(turn),
+                            _ => t.rotate_around(Vec3::ZERO, Quat::from_rotation_y(turn)),
+                        }
                     }
                 }
                 world.get_mut::<Transform>(parent).unwrap().translation += parent_step;
             }
             app.update();
         }
+        reused += accel_app
+            .world()
+            .resource::<CullingStats>()
+            .reused_light_walks;
         let (want, want_flags) = light_views(&mut bevy_app);
         let (got, got_flags) = light_views(&mut accel_app);
         let mut keys: Vec<_> = want.keys().copied().collect();
@@ -329,6 +337,7 @@ fn light_views_equal_bevys_over_moving_lights() {
         );
     }
     assert!(seen > 0, "the lights must see casters");
+    assert!(reused > 0, "still frames must keep the lights' walks");
     let stats = accel_app.world().resource::<CullingStats>();
     assert!(
         stats.light_views >= 6 + 6 + 1 + 2,

@@ -4,17 +4,15 @@
 //! Bevy tests every shadow caster in the world against every shadow-mapped light each frame:
 //! six cube faces per point light, one frustum per spot light, one per cascade and camera per
 //! directional light. Here each light view walks the trees first, and Bevy's own per-entity
-//! tests run only on what the walk found. A walk drops a subtree only when its box lies wholly
-//! behind one of the view's planes; the tree's box holds the entity's oriented box, which is
-//! then behind that plane too, and Bevy's test (one plane at a time) rejects it as well. So the
-//! walk never loses an entity Bevy would keep, and the results are Bevy's.
+//! tests run only on what the walk found. The walks ([`super::light_walks`]) drop only what
+//! Bevy's tests would drop, so the results are Bevy's.
 
-use super::slot_order::FoundSlots;
-use super::system::{CullingStats, tree_plane};
+use super::light_walks::{
+    LightCandidates, light_planes, light_sphere_may_reach, walk_shape, walk_where,
+};
+use super::system::CullingStats;
 use super::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
-use accel::dynamic::StaticDynamicPair;
-use accel::query::binary::for_each_leaf_primitive;
 use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, CascadesFrusta, CubemapFrusta, Frustum, Sphere};
 use bevy::camera::visibility::{
@@ -27,15 +25,14 @@ use bevy::light::cluster::ClusterVisibilityClass;
 use bevy::light::{
     DirectionalLight, NotShadowCaster, PointLight, SpotLight, get_shadow_lod_origin,
 };
-use bevy::math::{Affine3A, Vec3A, Vec4};
+use bevy::math::{Affine3A, Vec3A};
 use bevy::mesh::Mesh3d;
 use bevy::prelude::*;
 use core::any::TypeId;
-use core::ops::ControlFlow;
 use std::time::Instant;
 
 /// What deciding a shadow caster reads and writes: the item of Bevy's own query.
-type CasterItem = (
+pub(super) type CasterItem = (
     Entity,
     &'static InheritedVisibility,
     &'static mut ViewVisibility,
@@ -47,14 +44,14 @@ type CasterItem = (
 );
 
 /// Bevy's filter for shadow casters.
-type CasterFilter = (
+pub(super) type CasterFilter = (
     Without<NotShadowCaster>,
     Without<DirectionalLight>,
     Without<NoCpuCulling>,
     With<Mesh3d>,
 );
 
-type Casters<'w, 's> = Query<'w, 's, CasterItem, CasterFilter>;
+pub(super) type Casters<'w, 's> = Query<'w, 's, CasterItem, CasterFilter>;
 
 type PointLightItem = (
     &'static PointLight,
@@ -76,103 +73,13 @@ type SpotLightItem = (
 type PointOrSpotLight = Or<(With<PointLight>, With<SpotLight>)>;
 
 type DirectionalLightItem = (
+    Entity,
     &'static DirectionalLight,
     &'static CascadesFrusta,
     &'static mut CascadesVisibleEntities,
     Option<&'static RenderLayers>,
     &'static ViewVisibility,
 );
-
-/// The planes of a light view as the trees test them. Point and spot lights test all six;
-/// directional cascades skip the near plane (a caster may stand before it), so it becomes a
-/// half-space holding all space.
-fn light_planes(frustum: &Frustum, near: bool) -> [Vec4; 6] {
-    let mut planes = frustum.half_spaces.map(|h| tree_plane(h.normal_d()));
-    if !near {
-        planes[AccelFrustum::NEAR] = Vec4::new(0.0, 0.0, 0.0, 1.0);
-    }
-    planes
-}
-
-/// Whether Bevy's light-sphere test (`Sphere::intersects_obb`) can pass for an entity whose
-/// box lies in `b`. That test projects the entity's oriented box on one axis only, the line from
-/// the light to the box's center, so it passes for long boxes whose every point is out of
-/// range: a plain sphere-box overlap would drop entities Bevy keeps. What does hold: the test
-/// passes only if the box's center lies within the range plus the box's largest half-extent
-/// along that axis, which is at most the half-diagonal of any box holding the entity. Both
-/// the center and that box lie in `b`, so `b` can be dropped when it is farther from the light
-/// than the range plus its own half-diagonal (with a little slack for rounding).
-fn light_sphere_may_reach(sphere: &Sphere, b: &accel::Aabb) -> bool {
-    let reach = (sphere.radius + b.half_extents().length()) * (1.0 + 1e-3);
-    b.distance_squared_to_point(sphere.center) <= reach * reach
-}
-
-/// The entities one light view decides, each once.
-#[derive(Default)]
-pub(crate) struct LightCandidates {
-    found: FoundSlots,
-    /// Found by the walks, in slot order. `NoFrustumCulling` ones among them are skipped: they
-    /// come again in `others`.
-    walked: Vec<Entity>,
-    /// Unused: light walks mark every find for the exact test.
-    proved_inside: Vec<Entity>,
-    /// Everything a walk cannot find (see [`UntrackedEntities`]), or, while the trees are
-    /// stale, every caster.
-    others: Vec<Entity>,
-}
-
-impl LightCandidates {
-    /// Gathers the candidates that `walk` finds in the trees (it pushes slots, repeats
-    /// allowed), or every caster when the trees are not current.
-    fn gather(
-        &mut self,
-        trees: &AccelTrees,
-        untracked: &UntrackedEntities,
-        casters: &Casters,
-        walk: impl FnOnce(&StaticDynamicPair, &mut FoundSlots),
-    ) {
-        self.walked.clear();
-        self.others.clear();
-        if !untracked.trees_current() {
-            self.others.extend(casters.iter().map(|item| item.0));
-            return;
-        }
-        self.found.clear();
-        walk(trees.query(), &mut self.found);
-        // Slot order is table order, so the decisions read the rows nearly in sequence; views
-        // made of several frusta find an entity once per frustum, next to each other here.
-        self.found.drain_entities(
-            trees.slot_entities(),
-            &mut self.proved_inside,
-            &mut self.walked,
-        );
-        self.walked.dedup();
-        self.others.extend(untracked.iter());
-    }
-
-    /// Each candidate with whether a walk found it.
-    fn iter(&self) -> impl Iterator<Item = (Entity, bool)> + '_ {
-        let walked = self.walked.iter().map(|&e| (e, true));
-        walked.chain(self.others.iter().map(|&e| (e, false)))
-    }
-
-    fn len(&self) -> usize {
-        self.walked.len() + self.others.len()
-    }
-}
-
-/// Pushes every slot whose tree box passes `accept` (which must fail for every box inside a
-/// box it fails).
-fn walk_where(
-    pair: &StaticDynamicPair,
-    found: &mut FoundSlots,
-    accept: impl FnMut(&accel::Aabb) -> bool,
-) {
-    for_each_leaf_primitive(pair, accept, |slot| {
-        found.push(slot, true);
-        ControlFlow::Continue(())
-    });
-}
 
 /// Bevy's rules for a shadow caster before any frustum test.
 struct CasterRules<'a> {
@@ -266,6 +173,8 @@ pub(crate) fn cull_point_and_spot_lights(
 ) {
     let start = Instant::now();
     checked_lights.clear();
+    candidates.start_frame(trees.is_changed());
+    let mut shape = Vec::new();
     let range_view = get_shadow_lod_origin(
         camera_query.transmute_lens_filtered(),
         shadow_lod_origin_query.transmute_lens_filtered(),
@@ -289,7 +198,9 @@ pub(crate) fn cull_point_and_spot_lights(
                 };
                 // The six faces together cover nearly all space (Bevy bounds them with one far
                 // plane), so the light sphere alone is walked; faces are tested per entity.
-                candidates.gather(&trees, &untracked, &casters, |pair, found| {
+                walk_shape(Some(&sphere), &[], &mut shape);
+                let view = (light, light);
+                candidates.gather(view, &shape, &trees, &untracked, &casters, |pair, found| {
                     walk_where(pair, found, |b| light_sphere_may_reach(&sphere, b));
                 });
                 let rules = CasterRules {
@@ -325,8 +236,11 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: spot_light.range,
                 };
-                let planes = AccelFrustum::from_planes(light_planes(frustum, true));
-                candidates.gather(&trees, &untracked, &casters, |pair, found| {
+                let spot_planes = light_planes(frustum, true);
+                walk_shape(Some(&sphere), &[spot_planes], &mut shape);
+                let planes = AccelFrustum::from_planes(spot_planes);
+                let view = (light, light);
+                candidates.gather(view, &shape, &trees, &untracked, &casters, |pair, found| {
                     walk_where(pair, found, |b| {
                         light_sphere_may_reach(&sphere, b)
                             && planes.classify_aabb(b) != Containment::Outside
@@ -351,6 +265,8 @@ pub(crate) fn cull_point_and_spot_lights(
             }
         }
     }
+    candidates.end_frame();
+    stats.reused_light_walks += candidates.reused;
     stats.light_time += start.elapsed();
 }
 
@@ -367,7 +283,10 @@ pub(crate) fn cull_directional_lights(
 ) {
     let start = Instant::now();
     let ranges = ranges.as_deref();
-    for (light, frusta, mut visible_entities, layers, light_visibility) in &mut lights {
+    candidates.start_frame(trees.is_changed());
+    let (mut shape, mut cascade_planes) = (Vec::new(), Vec::new());
+    for (light_entity, light, frusta, mut visible_entities, layers, light_visibility) in &mut lights
+    {
         // The same bookkeeping as Bevy: one list per cascade of every view the light has
         // frusta for, and none for views it no longer has.
         let visible_entities = &mut visible_entities.entities;
@@ -395,9 +314,13 @@ pub(crate) fn cull_directional_lights(
             for list in lists.iter_mut() {
                 list.entities.clear();
             }
-            candidates.gather(&trees, &untracked, &casters, |pair, found| {
-                for frustum in view_frusta {
-                    let planes = AccelFrustum::from_planes(light_planes(frustum, false));
+            cascade_planes.clear();
+            cascade_planes.extend(view_frusta.iter().map(|f| light_planes(f, false)));
+            walk_shape(None, &cascade_planes, &mut shape);
+            let key = (light_entity, *view);
+            candidates.gather(key, &shape, &trees, &untracked, &casters, |pair, found| {
+                for planes in &cascade_planes {
+                    let planes = AccelFrustum::from_planes(*planes);
                     pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
                 }
             });
@@ -410,6 +333,8 @@ pub(crate) fn cull_directional_lights(
             stats.light_candidates += candidates.len();
         }
     }
+    candidates.end_frame();
+    stats.reused_light_walks += candidates.reused;
     stats.light_time += start.elapsed();
 }
 

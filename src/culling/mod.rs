@@ -9,6 +9,8 @@
 mod class_lists;
 #[cfg(feature = "light_culling")]
 mod light_views;
+#[cfg(feature = "light_culling")]
+mod light_walks;
 mod slot_order;
 mod system;
 mod tree_pass;

@@ -44,6 +44,9 @@ pub struct CullingStats {
     /// Entities decided one by one for those views: what their tree walks found, plus the
     /// entities no walk finds.
     pub light_candidates: usize,
+    /// Light views whose walk was kept from the last frame (neither the view nor the trees
+    /// changed); their entities are still decided one by one.
+    pub reused_light_walks: usize,
     /// Time spent culling light views.
     pub light_time: Duration,
 }
