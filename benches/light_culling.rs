@@ -151,7 +151,7 @@ fn set_scenario(app: &mut App, scenario: Scenario) {
 
 /// Moves every light by a hair, back and forth.
 fn nudge_lights(app: &mut App, frame: u32) {
-    let step = if frame % 2 == 0 { 1e-3 } else { -1e-3 };
+    let step = if frame.is_multiple_of(2) { 1e-3 } else { -1e-3 };
     let world = app.world_mut();
     let mut lights =
         world.query_filtered::<&mut Transform, Or<(With<PointLight>, With<DirectionalLight>)>>();
