@@ -15,44 +15,22 @@
 //! `cargo bench --profile dev --bench light_culling -- --warm-up-time 1 --measurement-time 3`
 
 use bevy::camera::primitives::Aabb;
-use bevy::camera::visibility::{NoAutoAabb, VisibilitySystems, VisibleEntities};
+use bevy::camera::visibility::NoAutoAabb;
 use bevy::ecs::schedule::ScheduleLabel;
-use bevy::light::cluster::ClusterVisibilityClass;
-use bevy::light::{
-    LightPlugin, SimulationLightSystems, check_dir_light_mesh_visibility,
-    check_point_light_mesh_visibility,
-};
+use bevy::light::{check_dir_light_mesh_visibility, check_point_light_mesh_visibility};
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::headless_app;
+use common::{add_lights, headless_app};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use std::any::TypeId;
 use std::time::{Duration, Instant};
 
 /// Bevy's two light-culling systems, alone.
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
 struct BevyLightCulling;
-
-/// The lights clustering assigns to views.
-type ClusteredLight = Or<(With<PointLight>, With<SpotLight>)>;
-
-/// Stands in for light clustering (which needs the renderer's settings): every point light is
-/// listed in every camera's view.
-fn list_lights_in_views(
-    mut views: Query<&mut VisibleEntities, With<Camera>>,
-    lights: Query<Entity, ClusteredLight>,
-) {
-    for mut visible in &mut views {
-        let list = visible.get_mut(TypeId::of::<ClusterVisibilityClass>());
-        list.clear();
-        list.extend(lights.iter());
-        list.sort_unstable();
-    }
-}
 
 /// Which lights cast shadows in a scenario.
 #[derive(Clone, Copy, Debug)]
@@ -63,15 +41,7 @@ enum Scenario {
 
 fn app(n: usize, ours: bool) -> App {
     let mut app = headless_app();
-    app.init_asset::<Image>()
-        .add_plugins((bevy::gizmos::GizmoPlugin, LightPlugin))
-        .add_systems(
-            PostUpdate,
-            list_lights_in_views
-                .after(VisibilitySystems::CheckVisibility)
-                .before(SimulationLightSystems::UpdateLightFrusta)
-                .before(SimulationLightSystems::CheckLightVisibility),
-        );
+    add_lights(&mut app);
     if ours {
         app.add_plugins(AccelCullingPlugin);
     } else {

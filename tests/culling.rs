@@ -10,7 +10,7 @@ use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 
 mod common;
-use common::headless_app;
+use common::{Rng, headless_app};
 use std::any::TypeId;
 
 /// Which of the test's cameras a view is (query order differs between the two apps).
@@ -20,23 +20,6 @@ struct ViewIndex(usize);
 /// The visibility class the test entities belong to (stands for `Mesh3d`).
 #[derive(Component, Default)]
 struct Drawable;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u32 {
-        let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * ((self.next() >> 8) as f32 / (1 << 24) as f32)
-    }
-    fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
-    }
-}
 
 fn app(ours: bool) -> App {
     let mut app = headless_app();

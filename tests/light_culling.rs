@@ -6,19 +6,17 @@
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::{
     CascadesVisibleEntities, CubemapVisibleEntities, NoAutoAabb, NoFrustumCulling, RenderLayers,
-    VisibilitySystems, VisibleEntities, VisibleMeshEntities,
+    VisibleMeshEntities,
 };
-use bevy::light::cluster::ClusterVisibilityClass;
-use bevy::light::{LightPlugin, NotShadowCaster, SimulationLightSystems};
+use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
-use std::any::TypeId;
 use std::collections::HashMap;
 
 mod common;
-use common::headless_app;
+use common::{Rng, add_lights, headless_app};
 
 /// Which of the test's cameras or lights an entity is (entity ids differ between the apps).
 #[derive(Component, Clone, Copy)]
@@ -28,53 +26,9 @@ struct Tag(usize);
 #[derive(Component, Clone, Copy)]
 struct Caster(usize);
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u32 {
-        let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * ((self.next() >> 8) as f32 / (1 << 24) as f32)
-    }
-    fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
-    }
-}
-
-/// The lights clustering assigns to views.
-type ClusteredLight = Or<(With<PointLight>, With<SpotLight>)>;
-
-/// Stands in for light clustering (which needs the renderer's settings): every point and spot
-/// light is listed in every camera's view, as a light near the cameras would be.
-fn list_lights_in_views(
-    mut views: Query<&mut VisibleEntities, With<Camera>>,
-    lights: Query<Entity, ClusteredLight>,
-) {
-    for mut visible in &mut views {
-        let list = visible.get_mut(TypeId::of::<ClusterVisibilityClass>());
-        list.clear();
-        list.extend(lights.iter());
-        list.sort_unstable();
-    }
-}
-
 fn app(ours: bool) -> App {
     let mut app = headless_app();
-    // bevy_light watches image assets (atmosphere textures) and draws light gizmos; the
-    // default plugins would bring both.
-    app.init_asset::<Image>()
-        .add_plugins(bevy::gizmos::GizmoPlugin);
-    app.add_plugins(LightPlugin).add_systems(
-        PostUpdate,
-        list_lights_in_views
-            .after(VisibilitySystems::CheckVisibility)
-            .before(SimulationLightSystems::UpdateLightFrusta)
-            .before(SimulationLightSystems::CheckLightVisibility),
-    );
+    add_lights(&mut app);
     if ours {
         app.add_plugins(AccelCullingPlugin);
     }

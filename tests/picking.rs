@@ -23,31 +23,11 @@ use bevy_accel::picking::{AccelHitExtra, AccelMeshCache, AccelPickingSettings};
 use bevy_accel::prelude::*;
 
 mod common;
-use common::app;
+use common::{Rng, app};
 
 /// Entities whose hits stop the ray in the mixed early-exit mode.
 #[derive(Component)]
 struct Blocker;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u32 {
-        let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * ((self.next() >> 8) as f32 / (1 << 24) as f32)
-    }
-    fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
-    }
-    fn chance(&mut self, p: f32) -> bool {
-        self.range(0.0, 1.0) < p
-    }
-}
 
 /// Mesh assets of every kind Bevy's ray cast reads: u32, u16 and no indices, with and without
 /// normals and uvs, closed and open, flat.

@@ -8,26 +8,8 @@ use bevy_accel::TreeSlot;
 use bevy_accel::accel::SpatialQuery;
 use bevy_accel::prelude::*;
 
-/// A reproducible stream for the scenario (PCG32).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u32 {
-        let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
-    }
-    fn f32(&mut self) -> f32 {
-        (self.next() >> 8) as f32 / (1 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-    fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
-    }
-}
+mod common;
+use common::Rng;
 
 fn app() -> App {
     let mut app = App::new();

@@ -1,9 +1,12 @@
 //! What the plugin's tests and benches share. Each uses part of it.
 #![allow(dead_code)]
 
-use bevy::camera::visibility::VisibilityPlugin;
+use bevy::camera::visibility::{VisibilityPlugin, VisibilitySystems, VisibleEntities};
+use bevy::light::cluster::ClusterVisibilityClass;
+use bevy::light::{LightPlugin, SimulationLightSystems};
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
+use std::any::TypeId;
 
 /// A headless app with the trees and what Bevy's visibility needs: no window, no renderer.
 /// Bevy's visibility systems read mesh assets (to compute bounds), so the asset plugin is in
@@ -23,10 +26,77 @@ pub fn headless_app() -> App {
     app
 }
 
+/// The lights clustering assigns to views.
+type ClusteredLight = Or<(With<PointLight>, With<SpotLight>)>;
+
+/// Stands in for light clustering (which needs the renderer's settings): every point and spot
+/// light is listed in every camera's view, as a light near the cameras would be.
+fn list_lights_in_views(
+    mut views: Query<&mut VisibleEntities, With<Camera>>,
+    lights: Query<Entity, ClusteredLight>,
+) {
+    for mut visible in &mut views {
+        let list = visible.get_mut(TypeId::of::<ClusterVisibilityClass>());
+        list.clear();
+        list.extend(lights.iter());
+        list.sort_unstable();
+    }
+}
+
+/// Adds bevy_light's `LightPlugin` to a [`headless_app`], with what it needs there: image
+/// assets (atmosphere textures) and gizmos (light gizmos), which the default plugins would
+/// bring, and a stand-in for light clustering.
+pub fn add_lights(app: &mut App) {
+    app.init_asset::<Image>()
+        .add_plugins((bevy::gizmos::GizmoPlugin, LightPlugin))
+        .add_systems(
+            PostUpdate,
+            list_lights_in_views
+                .after(VisibilitySystems::CheckVisibility)
+                .before(SimulationLightSystems::UpdateLightFrusta)
+                .before(SimulationLightSystems::CheckLightVisibility),
+        );
+}
+
 /// [`headless_app`] with the picking backend, finished.
 pub fn app() -> App {
     let mut app = headless_app();
     app.add_plugins(AccelPickingPlugin);
     app.finish();
     app
+}
+
+/// A small deterministic generator (PCG-XSH-RR) for the tests' scenes: fixed seeds, the same
+/// numbers on every machine.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// The next 32 random bits.
+    pub fn next(&mut self) -> u32 {
+        let old = self.0;
+        self.0 = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn f32(&mut self) -> f32 {
+        (self.next() >> 8) as f32 / (1 << 24) as f32
+    }
+
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+
+    /// Uniform in the cube `[-s, s)^3`.
+    pub fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
+    }
+
+    /// True with probability `p`.
+    pub fn chance(&mut self, p: f32) -> bool {
+        self.f32() < p
+    }
 }
