@@ -16,7 +16,7 @@ use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::headless_app;
+use common::{grid_point, headless_app};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::any::TypeId;
 use std::time::{Duration, Instant};
@@ -65,13 +65,8 @@ fn app(n: usize, ours: bool) -> App {
     class.push(TypeId::of::<Drawable>());
     let world = app.world_mut();
     world.spawn_batch((0..n).map(move |i| {
-        let p = Vec3::new(
-            (i % side) as f32,
-            (i / side % side) as f32,
-            (i / side / side) as f32,
-        ) * 4.0;
         (
-            Transform::from_translation(p),
+            Transform::from_translation(grid_point(i, side)),
             Visibility::Visible,
             class.clone(),
             Drawable,

@@ -24,7 +24,7 @@ use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{add_lights, headless_app};
+use common::{add_lights, grid_point, headless_app};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::time::{Duration, Instant};
 
@@ -58,13 +58,8 @@ fn app(n: usize, ours: bool) -> App {
     let extent = side as f32 * 4.0;
     let world = app.world_mut();
     world.spawn_batch((0..n).map(move |i| {
-        let p = Vec3::new(
-            (i % side) as f32,
-            (i / side % side) as f32,
-            (i / side / side) as f32,
-        ) * 4.0;
         (
-            Transform::from_translation(p),
+            Transform::from_translation(grid_point(i, side)),
             Visibility::Visible,
             Mesh3d::default(),
             NoAutoAabb,

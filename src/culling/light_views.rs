@@ -10,7 +10,7 @@
 use super::light_walks::{
     LightCandidates, light_planes, light_sphere_may_reach, walk_shape, walk_where,
 };
-use super::system::CullingStats;
+use super::system::{CullingStats, ViewFilter};
 use super::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
 use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
@@ -81,30 +81,26 @@ type DirectionalLightItem = (
     &'static ViewVisibility,
 );
 
-/// Bevy's rules for a shadow caster before any frustum test.
-struct CasterRules<'a> {
-    mask: &'a RenderLayers,
-    ranges: Option<&'a VisibleEntityRanges>,
-    /// The view whose distance decides visibility ranges; `None` (point and spot lights with
-    /// no shadow LOD origin) hides every entity that has a range, as Bevy does.
-    range_view: Option<Entity>,
-}
-
-impl CasterRules<'_> {
-    fn admits(
-        &self,
-        entity: Entity,
-        inherited: &InheritedVisibility,
-        layers: Option<&RenderLayers>,
-        has_range: bool,
-    ) -> bool {
-        inherited.get()
-            && self.mask.intersects(layers.unwrap_or_default())
-            && !(has_range
-                && self.ranges.is_some_and(|r| {
-                    self.range_view
-                        .is_none_or(|view| !r.entity_is_in_range_of_view(entity, view))
-                }))
+/// Calls `decide` for each candidate that passes Bevy's rules before any bounds test
+/// (hierarchy, layers, range), with its visibility, bounds and whether it has
+/// `NoFrustumCulling`. A walked `NoFrustumCulling` entity is passed over: it comes again among
+/// the entities no walk finds.
+fn for_each_admitted(
+    candidates: &LightCandidates,
+    casters: &mut Casters,
+    filter: &ViewFilter,
+    mut decide: impl FnMut(Entity, Mut<ViewVisibility>, Option<&Aabb>, Option<&GlobalTransform>, bool),
+) {
+    for (entity, walked) in candidates.iter() {
+        let Ok((entity, inherited, view_visibility, layers, aabb, transform, has_range, nfc)) =
+            casters.get_mut(entity)
+        else {
+            continue;
+        };
+        if (walked && nfc) || !filter.admits(entity, inherited, layers, has_range) {
+            continue;
+        }
+        decide(entity, view_visibility, aabb, transform, nfc);
     }
 }
 
@@ -113,7 +109,7 @@ impl CasterRules<'_> {
 fn decide_point_or_spot(
     candidates: &LightCandidates,
     casters: &mut Casters,
-    rules: &CasterRules,
+    filter: &ViewFilter,
     light_sphere: &Sphere,
     frusta: &[Frustum],
     lists: &mut [&mut Vec<Entity>],
@@ -121,33 +117,30 @@ fn decide_point_or_spot(
     for list in lists.iter_mut() {
         list.clear();
     }
-    for (entity, walked) in candidates.iter() {
-        let Ok((entity, inherited, mut view_visibility, layers, aabb, transform, has_range, nfc)) =
-            casters.get_mut(entity)
-        else {
-            continue;
-        };
-        if (walked && nfc) || !rules.admits(entity, inherited, layers, has_range) {
-            continue;
-        }
-        if let (Some(aabb), Some(transform)) = (aabb, transform) {
-            let model_to_world = transform.affine();
-            if !nfc && !light_sphere.intersects_obb(aabb, &model_to_world) {
-                continue;
-            }
-            for (frustum, list) in frusta.iter().zip(lists.iter_mut()) {
-                if nfc || frustum.intersects_obb(aabb, &model_to_world, true, true) {
-                    view_visibility.set_visible();
+    for_each_admitted(
+        candidates,
+        casters,
+        filter,
+        |entity, mut view_visibility, aabb, transform, nfc| {
+            if let (Some(aabb), Some(transform)) = (aabb, transform) {
+                let model_to_world = transform.affine();
+                if !nfc && !light_sphere.intersects_obb(aabb, &model_to_world) {
+                    return;
+                }
+                for (frustum, list) in frusta.iter().zip(lists.iter_mut()) {
+                    if nfc || frustum.intersects_obb(aabb, &model_to_world, true, true) {
+                        view_visibility.set_visible();
+                        list.push(entity);
+                    }
+                }
+            } else {
+                view_visibility.set_visible();
+                for list in lists.iter_mut() {
                     list.push(entity);
                 }
             }
-        } else {
-            view_visibility.set_visible();
-            for list in lists.iter_mut() {
-                list.push(entity);
-            }
-        }
-    }
+        },
+    );
     for list in lists.iter_mut() {
         list.sort_unstable();
     }
@@ -203,10 +196,10 @@ pub(crate) fn cull_point_and_spot_lights(
                 candidates.gather(view, &shape, &trees, &untracked, &casters, |pair, found| {
                     walk_where(pair, found, |b| light_sphere_may_reach(&sphere, b));
                 });
-                let rules = CasterRules {
+                let filter = ViewFilter {
+                    view: range_view,
                     mask: layers.unwrap_or_default(),
                     ranges,
-                    range_view,
                 };
                 let mut lists: Vec<&mut Vec<Entity>> = visible_entities
                     .iter_mut()
@@ -215,7 +208,7 @@ pub(crate) fn cull_point_and_spot_lights(
                 decide_point_or_spot(
                     &candidates,
                     &mut casters,
-                    &rules,
+                    &filter,
                     &sphere,
                     &frusta.frusta,
                     &mut lists,
@@ -246,15 +239,15 @@ pub(crate) fn cull_point_and_spot_lights(
                             && planes.classify_aabb(b) != Containment::Outside
                     });
                 });
-                let rules = CasterRules {
+                let filter = ViewFilter {
+                    view: range_view,
                     mask: layers.unwrap_or_default(),
                     ranges,
-                    range_view,
                 };
                 decide_point_or_spot(
                     &candidates,
                     &mut casters,
-                    &rules,
+                    &filter,
                     &sphere,
                     core::slice::from_ref(frustum),
                     &mut [&mut visible_entities.entities],
@@ -303,10 +296,10 @@ pub(crate) fn cull_directional_lights(
         }
         let mask = layers.unwrap_or_default();
         for (view, view_frusta) in &frusta.frusta {
-            let rules = CasterRules {
+            let filter = ViewFilter {
+                view: Some(*view),
                 mask,
                 ranges,
-                range_view: Some(*view),
             };
             let lists = visible_entities
                 .get_mut(view)
@@ -324,7 +317,7 @@ pub(crate) fn cull_directional_lights(
                     pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
                 }
             });
-            decide_cascades(&candidates, &mut casters, &rules, view_frusta, lists);
+            decide_cascades(&candidates, &mut casters, &filter, view_frusta, lists);
             for list in lists.iter_mut() {
                 list.shrink();
                 list.entities.sort_unstable();
@@ -343,36 +336,33 @@ pub(crate) fn cull_directional_lights(
 fn decide_cascades(
     candidates: &LightCandidates,
     casters: &mut Casters,
-    rules: &CasterRules,
+    filter: &ViewFilter,
     view_frusta: &[Frustum],
     lists: &mut [VisibleMeshEntities],
 ) {
-    for (entity, walked) in candidates.iter() {
-        let Ok((entity, inherited, mut view_visibility, layers, aabb, transform, has_range, nfc)) =
-            casters.get_mut(entity)
-        else {
-            continue;
-        };
-        if (walked && nfc) || !rules.admits(entity, inherited, layers, has_range) {
-            continue;
-        }
-        let Some((aabb, transform)) = aabb.zip(transform) else {
-            view_visibility.set_visible();
-            for list in lists.iter_mut() {
-                list.entities.push(entity);
+    for_each_admitted(
+        candidates,
+        casters,
+        filter,
+        |entity, mut view_visibility, aabb, transform, nfc| {
+            let Some((aabb, transform)) = aabb.zip(transform) else {
+                view_visibility.set_visible();
+                for list in lists.iter_mut() {
+                    list.entities.push(entity);
+                }
+                return;
+            };
+            let affine: Affine3A = transform.affine();
+            let mut visible = false;
+            for (frustum, list) in view_frusta.iter().zip(lists.iter_mut()) {
+                if nfc || frustum.intersects_obb(aabb, &affine, false, true) {
+                    visible = true;
+                    list.entities.push(entity);
+                }
             }
-            continue;
-        };
-        let affine: Affine3A = transform.affine();
-        let mut visible = false;
-        for (frustum, list) in view_frusta.iter().zip(lists.iter_mut()) {
-            if nfc || frustum.intersects_obb(aabb, &affine, false, true) {
-                visible = true;
-                list.entities.push(entity);
+            if visible {
+                view_visibility.set_visible();
             }
-        }
-        if visible {
-            view_visibility.set_visible();
-        }
-    }
+        },
+    );
 }

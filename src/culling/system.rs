@@ -163,7 +163,7 @@ pub(crate) fn cull_views_with_trees(
                 &mut thread_queues,
                 &mut visible_entities,
                 ViewFilter {
-                    view,
+                    view: Some(view),
                     mask: &view_mask,
                     ranges,
                 },
@@ -178,7 +178,7 @@ pub(crate) fn cull_views_with_trees(
         }
         let visible_before = s.visible;
         let filter = ViewFilter {
-            view,
+            view: Some(view),
             mask: &view_mask,
             ranges,
         };
@@ -265,13 +265,16 @@ pub(crate) fn cull_views_with_trees(
 }
 
 /// The per-entity rules Bevy applies before any frustum test: the entity is visible in the
-/// hierarchy, shares a render layer with the view, and is within its visibility range. Both
-/// culling paths ask it, so they cannot drift apart.
+/// hierarchy, shares a render layer with the view, and is within its visibility range. Every
+/// culling path (flat, tree, light views) asks it, so they cannot drift apart.
 #[derive(Clone, Copy)]
 pub(crate) struct ViewFilter<'a> {
-    view: Entity,
-    mask: &'a RenderLayers,
-    ranges: Option<&'a VisibleEntityRanges>,
+    /// The view whose distance decides visibility ranges. `None` hides every entity that has
+    /// a range, as Bevy's point and spot light pass does when no view can be the shadow LOD
+    /// origin.
+    pub(crate) view: Option<Entity>,
+    pub(crate) mask: &'a RenderLayers,
+    pub(crate) ranges: Option<&'a VisibleEntityRanges>,
 }
 
 impl ViewFilter<'_> {
@@ -286,9 +289,10 @@ impl ViewFilter<'_> {
         inherited.get()
             && self.mask.intersects(layers.unwrap_or_default())
             && !(has_range
-                && self
-                    .ranges
-                    .is_some_and(|r| !r.entity_is_in_range_of_view(entity, self.view)))
+                && self.ranges.is_some_and(|r| {
+                    self.view
+                        .is_none_or(|view| !r.entity_is_in_range_of_view(entity, view))
+                }))
     }
 }
 

@@ -58,6 +58,16 @@ pub fn add_lights(app: &mut App) {
         );
 }
 
+/// The `i`th point of a cube grid `side` points wide, 4 units apart (the culling benches'
+/// scenes: unit boxes with gaps between them).
+pub fn grid_point(i: usize, side: usize) -> Vec3 {
+    Vec3::new(
+        (i % side) as f32,
+        (i / side % side) as f32,
+        (i / side / side) as f32,
+    ) * 4.0
+}
+
 /// [`headless_app`] with the picking backend, finished.
 pub fn app() -> App {
     let mut app = headless_app();
