@@ -292,6 +292,13 @@ fn light_views_equal_bevys_over_moving_lights() {
     }
     assert!(seen > 0, "the lights must see casters");
     assert!(reused > 0, "still frames must keep the lights' walks");
+    let store = accel_app
+        .world()
+        .resource::<bevy::diagnostic::DiagnosticsStore>();
+    for path in [CullingStats::TIME, CullingStats::LIGHT_TIME] {
+        let measured = store.get(&path).and_then(|d| d.measurement());
+        assert!(measured.is_some(), "diagnostic {path} has no measurement");
+    }
     let stats = accel_app.world().resource::<CullingStats>();
     assert!(
         stats.light_views >= 6 + 6 + 1 + 2,

@@ -37,6 +37,9 @@ pub struct AccelCullingPlugin;
 
 impl Plugin for AccelCullingPlugin {
     fn build(&self, app: &mut App) {
+        CullingStats::register(app);
+        // In `Last`: after the camera and light passes of `PostUpdate`, whichever ran.
+        app.add_systems(Last, system::publish_culling_stats);
         app.init_resource::<CullingStats>().add_systems(
             PostUpdate,
             system::cull_views_with_trees

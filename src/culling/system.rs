@@ -12,6 +12,7 @@ use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
     VisibilityRange, VisibleEntities, VisibleEntityRanges,
 };
+use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
 use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
 use bevy::prelude::*;
@@ -19,7 +20,8 @@ use bevy::utils::Parallel;
 use core::time::Duration;
 use std::time::Instant;
 
-/// What the last culling pass did, summed over views.
+/// What the last culling pass did, summed over views. Also published as Bevy diagnostics
+/// ([`CullingStats::TIME`], [`CullingStats::LIGHT_TIME`], [`CullingStats::VISIBLE`]).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct CullingStats {
     /// Views culled.
@@ -49,6 +51,32 @@ pub struct CullingStats {
     pub reused_light_walks: usize,
     /// Time spent culling light views.
     pub light_time: Duration,
+}
+
+impl CullingStats {
+    /// Camera culling time, in milliseconds.
+    pub const TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/culling_time_ms");
+    /// Light-view culling time, in milliseconds (cargo feature `light_culling`).
+    pub const LIGHT_TIME: DiagnosticPath =
+        DiagnosticPath::const_new("bevy_accel/light_culling_time_ms");
+    /// Entities visible in the camera views, summed over views.
+    pub const VISIBLE: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/culling_visible");
+
+    pub(crate) fn register(app: &mut App) {
+        for path in [Self::TIME, Self::LIGHT_TIME, Self::VISIBLE] {
+            app.register_diagnostic(Diagnostic::new(path));
+        }
+    }
+}
+
+/// Copies the last frame's culling figures into Bevy's diagnostics.
+pub(crate) fn publish_culling_stats(stats: Res<CullingStats>, mut diagnostics: Diagnostics) {
+    let s = &*stats;
+    diagnostics.add_measurement(&CullingStats::TIME, || s.time.as_secs_f64() * 1e3);
+    diagnostics.add_measurement(&CullingStats::LIGHT_TIME, || {
+        s.light_time.as_secs_f64() * 1e3
+    });
+    diagnostics.add_measurement(&CullingStats::VISIBLE, || s.visible as f64);
 }
 
 /// Above this fraction of entities visible (in the view's previous frame), a flat
