@@ -31,11 +31,19 @@ struct Blocker;
 
 /// Mesh assets of every kind Bevy's ray cast reads: u32, u16 and no indices, with and without
 /// normals and uvs, closed and open, flat.
-fn test_meshes(meshes: &mut Assets<Mesh>) -> Vec<Handle<Mesh>> {
+fn test_meshes(meshes: &mut Assets<Mesh>) -> [Handle<Mesh>; TEST_MESHES] {
     let mut u16_sphere = Sphere::new(0.7).mesh().uv(16, 12);
     if let Some(Indices::U32(i)) = u16_sphere.indices() {
         let short = i.iter().map(|&i| i as u16).collect();
         u16_sphere.insert_indices(Indices::U16(short));
+    }
+    // Every seventh triangle names a vertex the mesh does not have: Bevy skips those
+    // triangles and keeps the rest.
+    let mut broken_sphere = Sphere::new(0.9).mesh().uv(24, 14);
+    if let Some(Indices::U32(i)) = broken_sphere.indices_mut() {
+        for triangle in i.chunks_exact_mut(3).step_by(7) {
+            triangle[1] = u32::MAX;
+        }
     }
     let mut bare_torus = Mesh::from(Torus::new(0.3, 0.8));
     bare_torus.remove_attribute(Mesh::ATTRIBUTE_NORMAL);
@@ -52,11 +60,13 @@ fn test_meshes(meshes: &mut Assets<Mesh>) -> Vec<Handle<Mesh>> {
         u16_sphere,
         Mesh::from(Torus::new(0.3, 0.8)).with_duplicated_vertices(),
         bare_torus,
+        broken_sphere,
     ]
-    .into_iter()
     .map(|m| meshes.add(m))
-    .collect()
 }
+
+/// How many assets [`test_meshes`] makes.
+const TEST_MESHES: usize = 12;
 
 /// A random scene of `n` mesh entities (some hidden, on other layers, double-sided, with a
 /// simplified mesh, blocking) and a few mesh-less entities with bounds only.
@@ -298,7 +308,7 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
             tally.grazing
         );
         // Lazy building: only meshes some ray reached have a BVH, at most one per asset.
-        assert!(app.world().resource::<AccelMeshCache>().len() <= 11);
+        assert!(app.world().resource::<AccelMeshCache>().len() <= TEST_MESHES);
     }
 }
 

@@ -48,13 +48,20 @@ impl CachedMesh {
                 None => return Err("has positions that are not Float32x3".into()),
             },
         };
-        let indices: Vec<u32> = match mesh.try_indices_option() {
+        let mut indices: Vec<u32> = match mesh.try_indices_option() {
             Err(_) => return Err(RENDER_WORLD_ONLY.into()),
             Ok(Some(Indices::U16(i))) => i.iter().map(|&i| u32::from(i)).collect(),
             Ok(Some(Indices::U32(i))) => i.clone(),
             // Bevy reads a non-indexed list in whole triangles and ignores a trailing remainder.
             Ok(None) => (0..(positions.len() / 3 * 3) as u32).collect(),
         };
+        let collapsed = collapse_triangles_out_of_range(&mut indices, positions.len());
+        if collapsed > 0 {
+            warn!(
+                "bevy_accel picking: {collapsed} triangles of a mesh name vertices it does not \
+                 have; rays skip them, as Bevy's do"
+            );
+        }
         let bvh = MeshBvh::new(&positions, &indices).map_err(|e| format!("is malformed: {e}"))?;
         let normals = mesh
             .try_attribute_option(Mesh::ATTRIBUTE_NORMAL)
@@ -83,6 +90,26 @@ impl CachedMesh {
         let i = 3 * triangle as usize;
         [self.indices[i], self.indices[i + 1], self.indices[i + 2]]
     }
+}
+
+/// Makes every triangle that names a vertex past `vertex_count` a point at vertex 0, which no
+/// ray hits (the watertight test rejects a zero determinant). Why: Bevy's ray cast skips such a
+/// triangle and keeps the rest of the mesh, and numbers hits by their place in the index list;
+/// a zero-area stand-in keeps both, where a build error would lose the whole mesh to its
+/// bounds. Returns how many triangles were collapsed. A count that is not a multiple of three
+/// is left for the build to refuse (Bevy skips such a mesh whole).
+fn collapse_triangles_out_of_range(indices: &mut [u32], vertex_count: usize) -> usize {
+    if vertex_count == 0 || indices.len() % 3 != 0 {
+        return 0;
+    }
+    let mut collapsed = 0;
+    for triangle in indices.chunks_exact_mut(3) {
+        if triangle.iter().any(|&i| i as usize >= vertex_count) {
+            triangle.fill(0);
+            collapsed += 1;
+        }
+    }
+    collapsed
 }
 
 /// What a ray is tested against for one mesh asset.

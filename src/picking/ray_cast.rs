@@ -83,8 +83,9 @@ enum Target {
 /// [`AccelSettings::require_marker`](crate::AccelSettings), those without
 /// [`AccelTracked`](crate::AccelTracked)). Triangles are tested with the watertight test, in
 /// the mesh's space, through a BVH per mesh asset cached in [`AccelMeshCache`]. Meshes that
-/// cannot be read (not a triangle list, render-world only, an index out of range) are hit on
-/// their `Aabb` instead of being skipped, with one warning per asset.
+/// cannot be read (not a triangle list, render-world only, an index count that is not a
+/// multiple of three) are hit on their `Aabb` instead of being skipped, with one warning per
+/// asset; triangles naming a vertex the mesh lacks are skipped, as Bevy skips them.
 ///
 /// Where results can differ from `MeshRayCast`, by design:
 /// - entities are where the sync last placed them (see [`AccelTrees`]): a transform written
