@@ -99,7 +99,7 @@ impl CachedMesh {
 /// bounds. Returns how many triangles were collapsed. A count that is not a multiple of three
 /// is left for the build to refuse (Bevy skips such a mesh whole).
 fn collapse_triangles_out_of_range(indices: &mut [u32], vertex_count: usize) -> usize {
-    if vertex_count == 0 || indices.len() % 3 != 0 {
+    if vertex_count == 0 || !indices.len().is_multiple_of(3) {
         return 0;
     }
     let mut collapsed = 0;
