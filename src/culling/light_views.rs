@@ -25,7 +25,7 @@ use bevy::light::cluster::ClusterVisibilityClass;
 use bevy::light::{
     DirectionalLight, NotShadowCaster, PointLight, SpotLight, get_shadow_lod_origin,
 };
-use bevy::math::{Affine3A, Vec3A};
+use bevy::math::{Affine3A, Vec3A, Vec4};
 use bevy::mesh::Mesh3d;
 use bevy::prelude::*;
 use core::any::TypeId;
@@ -112,7 +112,7 @@ fn decide_point_or_spot(
     filter: &ViewFilter,
     light_sphere: &Sphere,
     frusta: &[Frustum],
-    lists: &mut [&mut Vec<Entity>],
+    lists: &mut [Vec<Entity>],
 ) {
     for list in lists.iter_mut() {
         list.clear();
@@ -162,12 +162,13 @@ pub(crate) fn cull_point_and_spot_lights(
     mut point_and_spot_light_query: Query<Entity, PointOrSpotLight>,
     mut checked_lights: Local<EntityHashSet>,
     mut candidates: Local<LightCandidates>,
+    mut shape: Local<Vec<u32>>,
+    mut face_lists: Local<[Vec<Entity>; 6]>,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();
     checked_lights.clear();
     candidates.start_frame(trees.is_changed());
-    let mut shape = Vec::new();
     let range_view = get_shadow_lod_origin(
         camera_query.transmute_lens_filtered(),
         shadow_lod_origin_query.transmute_lens_filtered(),
@@ -201,20 +202,22 @@ pub(crate) fn cull_point_and_spot_lights(
                     mask: layers.unwrap_or_default(),
                     ranges,
                 };
-                let mut lists: Vec<&mut Vec<Entity>> = visible_entities
-                    .iter_mut()
-                    .map(|v| &mut v.entities)
-                    .collect();
+                // The faces' lists are swapped into scratch lists and back (capacity kept both
+                // ways), so that the decisions get one slice of lists for cube and spot alike.
+                for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
+                    core::mem::swap(&mut face.entities, list);
+                }
                 decide_point_or_spot(
                     &candidates,
                     &mut casters,
                     &filter,
                     &sphere,
                     &frusta.frusta,
-                    &mut lists,
+                    &mut face_lists[..],
                 );
-                for faces in visible_entities.iter_mut() {
-                    faces.shrink();
+                for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
+                    core::mem::swap(&mut face.entities, list);
+                    face.shrink();
                 }
                 stats.light_views += 6;
                 stats.light_candidates += candidates.len();
@@ -250,7 +253,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     &filter,
                     &sphere,
                     core::slice::from_ref(frustum),
-                    &mut [&mut visible_entities.entities],
+                    core::slice::from_mut(&mut visible_entities.entities),
                 );
                 visible_entities.shrink();
                 stats.light_views += 1;
@@ -265,6 +268,7 @@ pub(crate) fn cull_point_and_spot_lights(
 
 /// Replaces `check_dir_light_mesh_visibility`: the shadow casters of every cascade of every
 /// directional light, found through the trees.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn cull_directional_lights(
     trees: Res<AccelTrees>,
     untracked: UntrackedEntities,
@@ -272,12 +276,13 @@ pub(crate) fn cull_directional_lights(
     mut lights: Query<DirectionalLightItem, Without<SpotLight>>,
     mut casters: Casters,
     mut candidates: Local<LightCandidates>,
+    mut scratch: Local<(Vec<u32>, Vec<[Vec4; 6]>)>,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();
     let ranges = ranges.as_deref();
     candidates.start_frame(trees.is_changed());
-    let (mut shape, mut cascade_planes) = (Vec::new(), Vec::new());
+    let (shape, cascade_planes) = &mut *scratch;
     for (light_entity, light, frusta, mut visible_entities, layers, light_visibility) in &mut lights
     {
         // The same bookkeeping as Bevy: one list per cascade of every view the light has
@@ -309,10 +314,10 @@ pub(crate) fn cull_directional_lights(
             }
             cascade_planes.clear();
             cascade_planes.extend(view_frusta.iter().map(|f| light_planes(f, false)));
-            walk_shape(None, &cascade_planes, &mut shape);
+            walk_shape(None, cascade_planes, shape);
             let key = (light_entity, *view);
-            candidates.gather(key, &shape, &trees, &untracked, &casters, |pair, found| {
-                for planes in &cascade_planes {
+            candidates.gather(key, shape, &trees, &untracked, &casters, |pair, found| {
+                for planes in cascade_planes.iter() {
                     let planes = AccelFrustum::from_planes(*planes);
                     pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
                 }
