@@ -31,7 +31,36 @@ pub use system::CullingStats;
 /// Requires [`AccelPlugin`](crate::AccelPlugin). Add it after `DefaultPlugins`, or anywhere: the
 /// built-in system is removed in [`Plugin::finish`]. Entities the trees do not hold (no `Aabb`,
 /// [`AccelIgnore`](crate::AccelIgnore), a rejected transform) are tested one by one, as Bevy
-/// would; `NoCpuCulling` entities and cameras keep Bevy's behaviour.
+/// would; `NoCpuCulling` entities and cameras keep Bevy's behaviour. With the cargo feature
+/// `light_culling` (on by default) and bevy_light's `LightPlugin` in the app, the shadow views
+/// of point, spot and directional lights are culled on the trees too.
+///
+/// ```
+/// use bevy::camera::primitives::{Aabb, Frustum};
+/// use bevy::camera::visibility::VisibilityPlugin;
+/// use bevy::math::primitives::ViewFrustum;
+/// use bevy::prelude::*;
+/// use bevy_accel::AccelCullingPlugin;
+/// use bevy_accel::prelude::*;
+///
+/// let mut app = App::new();
+/// app.add_plugins((MinimalPlugins, AssetPlugin::default(), TransformPlugin, VisibilityPlugin))
+///     .init_asset::<Mesh>()
+///     .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
+///     .add_plugins((AccelPlugin::default(), AccelCullingPlugin));
+/// app.finish();
+/// // A camera at the origin looking down -z (a hand-made frustum: no renderer here).
+/// let view = Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y);
+/// let projection = Mat4::perspective_infinite_reverse_rh(1.0, 1.0, 0.1);
+/// let frustum = Frustum(ViewFrustum::from_clip_from_world(&(projection * view)));
+/// app.world_mut().spawn((Camera::default(), frustum));
+/// let cube = Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5));
+/// let ahead = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, -10.0), Visibility::Visible, cube)).id();
+/// let behind = app.world_mut().spawn((Transform::from_xyz(0.0, 0.0, 10.0), Visibility::Visible, cube)).id();
+/// app.update();
+/// assert!(app.world().get::<ViewVisibility>(ahead).unwrap().get());
+/// assert!(!app.world().get::<ViewVisibility>(behind).unwrap().get());
+/// ```
 #[derive(Default)]
 pub struct AccelCullingPlugin;
 
