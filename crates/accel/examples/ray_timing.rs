@@ -1,11 +1,14 @@
 //! Rays per second on the benchmark's 1M-triangle bunny scene (the scene of
 //! `benches/bvh_rays.rs`), ours against obvhs 0.3.3's CWBVH, interleaved round by round in one
-//! process, for three kinds of rays, 20,000 of each:
+//! process, for four kinds of rays, 20,000 of each:
 //!
 //! - primary: closest hit, a pinhole camera's 141 x 141 pixel grid in scanline order, from
 //!   outside the scene cube towards its centre (coherent);
 //! - shadow: any hit, from each primary hit point (moved back 1e-3 along the primary ray)
 //!   towards a point light above the scene, limited to the light's distance;
+//! - diffuse: closest hit, one bounce from each primary hit (moved off the surface by 1e-3
+//!   along its normal), in a cosine-weighted direction about the normal on the side the
+//!   primary ray came from (the secondary rays of a path tracer: tinybvh's "diffuse");
 //! - incoherent: closest hit, origins uniform in the scene cube, directions uniform on the
 //!   sphere (the rays of `benches/bvh_rays.rs`).
 //!
@@ -124,6 +127,41 @@ fn shadow_rays(primary: &[(Vec3A, Vec3A, f32)], mesh: &MeshBvh) -> Vec<(Vec3A, V
         .collect()
 }
 
+/// One bounce from each primary hit: a cosine-weighted direction about the surface normal,
+/// on the side the primary ray came from (Malley's method: uniform on the disc, lifted to the
+/// hemisphere). Primary rays that miss are skipped; the hits are cycled to make `RAYS` rays.
+fn diffuse_rays(primary: &[(Vec3A, Vec3A, f32)], mesh: &MeshBvh) -> Vec<(Vec3A, Vec3A, f32)> {
+    let surfaces: Vec<(Vec3A, Vec3A)> = primary
+        .iter()
+        .filter_map(|&(o, d, _)| {
+            let hit = mesh.cast_ray(&Ray::new(o, d), Backfaces::Include)?;
+            let n = hit.geometric_normal;
+            let n = if n.dot(d) > 0.0 { -n } else { n };
+            Some((o + d * hit.t + n * 1e-3, n))
+        })
+        .collect();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..RAYS)
+        .map(|i| {
+            let (p, n) = surfaces[i % surfaces.len()];
+            let tangent = if n.x.abs() > 0.9 { Vec3A::Y } else { Vec3A::X }
+                .cross(n)
+                .normalize();
+            let bitangent = n.cross(tangent);
+            let (r, phi) = (uniform().sqrt(), std::f32::consts::TAU * uniform());
+            let lift = (1.0 - r * r).max(0.0).sqrt();
+            let d = tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + n * lift;
+            (p, d.normalize(), f32::INFINITY)
+        })
+        .collect()
+}
+
 /// A `WideBvh` over the triangle boxes, tracing with the single watertight test.
 fn wide_tracer<'a, T: SpatialQuery + 'a>(tree: T, tris: &'a [Triangle]) -> Tracer<'a> {
     Box::new(move |set, i| {
@@ -170,6 +208,7 @@ fn main() {
     let sets = [
         RaySet::new("primary", &primary, false),
         RaySet::new("shadow", &shadow_rays(&primary, &mesh), true),
+        RaySet::new("diffuse", &diffuse_rays(&primary, &mesh), false),
         RaySet::new(
             "incoherent",
             &common::incoherent_rays(RAYS, common::TRI_EXTENT, 3)
