@@ -127,6 +127,8 @@ fn lights_and_cameras(app: &mut App) {
         ..default()
     };
     world.spawn((point(40.0), Transform::from_xyz(10.0, 5.0, -20.0), Tag(10)));
+    // Reaches the whole scene: its walk finds most casters, and the flat pass decides it.
+    world.spawn((point(500.0), Transform::from_xyz(0.0, 30.0, 0.0), Tag(12)));
     world.spawn((
         point(25.0),
         Transform::from_xyz(-50.0, 0.0, 30.0),
@@ -214,10 +216,21 @@ fn light_views_equal_bevys_over_moving_lights() {
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
     let mut rng = Rng(21);
-    let (mut seen, mut reused) = (0, 0);
+    let (mut seen, mut reused, mut flat) = (0, 0, 0);
     for frame in 0..16 {
+        // Frames 12 and 13: the plugin is switched off and its trees go stale; every light
+        // view must then take the flat pass.
+        accel_app
+            .world_mut()
+            .resource_mut::<AccelSettings>()
+            .enabled = !(12..14).contains(&frame);
         let light_step = rng.vec3(15.0);
-        let parent_step = rng.vec3(20.0);
+        let mut parent_step = rng.vec3(20.0);
+        if frame == 12 {
+            // A jump while the trees are stale: the parent's children leave and enter light
+            // ranges, which walks of the stale trees would miss.
+            parent_step = Vec3::new(70.0, 0.0, -40.0);
+        }
         let turn = rng.range(-0.3, 0.3);
         for (app, parent) in [(&mut bevy_app, parents[0]), (&mut accel_app, parents[1])] {
             let world = app.world_mut();
@@ -240,7 +253,7 @@ fn light_views_equal_bevys_over_moving_lights() {
                     let mut q = world.query::<(&Tag, &mut Transform)>();
                     for (tag, mut t) in q.iter_mut(world) {
                         match tag.0 {
-                            10 | 11 | 20 => t.translation += light_step,
+                            10..=12 | 20 => t.translation += light_step,
                             30 => t.rotate_y(turn),
                             _ => t.rotate_around(Vec3::ZERO, Quat::from_rotation_y(turn)),
                         }
@@ -250,10 +263,9 @@ fn light_views_equal_bevys_over_moving_lights() {
             }
             app.update();
         }
-        reused += accel_app
-            .world()
-            .resource::<CullingStats>()
-            .reused_light_walks;
+        let stats = accel_app.world().resource::<CullingStats>();
+        reused += stats.reused_light_walks;
+        flat += stats.flat_light_views;
         let (want, want_flags) = light_views(&mut bevy_app);
         let (got, got_flags) = light_views(&mut accel_app);
         let mut keys: Vec<_> = want.keys().copied().collect();
@@ -292,6 +304,7 @@ fn light_views_equal_bevys_over_moving_lights() {
     }
     assert!(seen > 0, "the lights must see casters");
     assert!(reused > 0, "still frames must keep the lights' walks");
+    assert!(flat > 0, "the far-reaching light must take the flat pass");
     let store = accel_app
         .world()
         .resource::<bevy::diagnostic::DiagnosticsStore>();
@@ -301,7 +314,7 @@ fn light_views_equal_bevys_over_moving_lights() {
     }
     let stats = accel_app.world().resource::<CullingStats>();
     assert!(
-        stats.light_views >= 6 + 6 + 1 + 2,
+        stats.light_views >= 6 + 6 + 6 + 1 + 2,
         "light views culled on the trees: {}",
         stats.light_views
     );

@@ -28,6 +28,7 @@ use bevy::light::{
 use bevy::math::{Affine3A, Vec3A, Vec4};
 use bevy::mesh::Mesh3d;
 use bevy::prelude::*;
+use bevy::utils::Parallel;
 use core::any::TypeId;
 use std::time::Instant;
 
@@ -81,69 +82,145 @@ type DirectionalLightItem = (
     &'static ViewVisibility,
 );
 
-/// Calls `decide` for each candidate that passes Bevy's rules before any bounds test
-/// (hierarchy, layers, range), with its visibility, bounds and whether it has
-/// `NoFrustumCulling`. A walked `NoFrustumCulling` entity is passed over: it comes again among
-/// the entities no walk finds.
-fn for_each_admitted(
-    candidates: &LightCandidates,
-    casters: &mut Casters,
-    filter: &ViewFilter,
-    mut decide: impl FnMut(Entity, Mut<ViewVisibility>, Option<&Aabb>, Option<&GlobalTransform>, bool),
-) {
-    for (entity, walked) in candidates.iter() {
-        let Ok((entity, inherited, view_visibility, layers, aabb, transform, has_range, nfc)) =
-            casters.get_mut(entity)
-        else {
-            continue;
+/// Bevy's bounds tests for one kind of light view: which of the view's lists (cube faces,
+/// the spot frustum, cascades) an admitted caster goes into.
+trait CasterTest: Sync {
+    /// Pushes `entity` into the lists whose frustum keeps it; returns whether any did (the
+    /// caster is then visible).
+    fn place(
+        &self,
+        entity: Entity,
+        aabb: Option<&Aabb>,
+        transform: Option<&GlobalTransform>,
+        no_frustum_culling: bool,
+        lists: &mut [Vec<Entity>],
+    ) -> bool;
+}
+
+/// `check_point_light_mesh_visibility`'s tests: the light sphere, then each face (or the spot
+/// frustum), near and far planes included.
+struct PointOrSpotTest<'a> {
+    sphere: &'a Sphere,
+    frusta: &'a [Frustum],
+}
+
+impl CasterTest for PointOrSpotTest<'_> {
+    fn place(
+        &self,
+        entity: Entity,
+        aabb: Option<&Aabb>,
+        transform: Option<&GlobalTransform>,
+        nfc: bool,
+        lists: &mut [Vec<Entity>],
+    ) -> bool {
+        let (Some(aabb), Some(transform)) = (aabb, transform) else {
+            lists.iter_mut().for_each(|list| list.push(entity));
+            return true;
         };
-        if (walked && nfc) || !filter.admits(entity, inherited, layers, has_range) {
-            continue;
+        let model_to_world = transform.affine();
+        if !nfc && !self.sphere.intersects_obb(aabb, &model_to_world) {
+            return false;
         }
-        decide(entity, view_visibility, aabb, transform, nfc);
+        let mut visible = false;
+        for (frustum, list) in self.frusta.iter().zip(lists.iter_mut()) {
+            if nfc || frustum.intersects_obb(aabb, &model_to_world, true, true) {
+                visible = true;
+                list.push(entity);
+            }
+        }
+        visible
     }
 }
 
-/// Decides the candidates of a point light (six faces) or a spot light (one) exactly as
-/// `check_point_light_mesh_visibility` does; fills `lists` (one per face, sorted).
-fn decide_point_or_spot(
+/// `check_dir_light_mesh_visibility`'s tests: each cascade without its near plane, no light
+/// sphere.
+struct CascadeTest<'a> {
+    frusta: &'a [Frustum],
+}
+
+impl CasterTest for CascadeTest<'_> {
+    fn place(
+        &self,
+        entity: Entity,
+        aabb: Option<&Aabb>,
+        transform: Option<&GlobalTransform>,
+        nfc: bool,
+        lists: &mut [Vec<Entity>],
+    ) -> bool {
+        let (Some(aabb), Some(transform)) = (aabb, transform) else {
+            lists.iter_mut().for_each(|list| list.push(entity));
+            return true;
+        };
+        let affine: Affine3A = transform.affine();
+        let mut visible = false;
+        for (frustum, list) in self.frusta.iter().zip(lists.iter_mut()) {
+            if nfc || frustum.intersects_obb(aabb, &affine, false, true) {
+                visible = true;
+                list.push(entity);
+            }
+        }
+        visible
+    }
+}
+
+/// What the directional pass reuses from frame to frame: a walk's key, the cascades' planes
+/// and the cascades' lists.
+type CascadeScratch = (Vec<u32>, Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
+
+/// Per-thread lists of the flat pass.
+type ThreadLists = Parallel<Vec<Vec<Entity>>>;
+
+/// Decides one light view into `lists` (sorted, as Bevy leaves them): its candidates one by
+/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop.
+#[allow(clippy::too_many_arguments)]
+fn decide_view(
     candidates: &LightCandidates,
+    flat: bool,
     casters: &mut Casters,
     filter: &ViewFilter,
-    light_sphere: &Sphere,
-    frusta: &[Frustum],
+    test: &impl CasterTest,
     lists: &mut [Vec<Entity>],
+    threads: &mut ThreadLists,
 ) {
-    for list in lists.iter_mut() {
-        list.clear();
-    }
-    for_each_admitted(
-        candidates,
-        casters,
-        filter,
-        |entity, mut view_visibility, aabb, transform, nfc| {
-            if let (Some(aabb), Some(transform)) = (aabb, transform) {
-                let model_to_world = transform.affine();
-                if !nfc && !light_sphere.intersects_obb(aabb, &model_to_world) {
+    lists.iter_mut().for_each(Vec::clear);
+    if flat {
+        let n = lists.len();
+        casters.par_iter_mut().for_each_init(
+            || threads.borrow_local_mut(),
+            |local, (entity, inherited, mut view_visibility, layers, aabb, transform, range, nfc)| {
+                if !filter.admits(entity, inherited, layers, range) {
                     return;
                 }
-                for (frustum, list) in frusta.iter().zip(lists.iter_mut()) {
-                    if nfc || frustum.intersects_obb(aabb, &model_to_world, true, true) {
-                        view_visibility.set_visible();
-                        list.push(entity);
-                    }
+                if local.len() < n {
+                    local.resize_with(n, Vec::new);
                 }
-            } else {
-                view_visibility.set_visible();
-                for list in lists.iter_mut() {
-                    list.push(entity);
+                if test.place(entity, aabb, transform, nfc, &mut local[..n]) {
+                    view_visibility.set_visible();
                 }
+            },
+        );
+        for local in threads.iter_mut() {
+            for (list, part) in lists.iter_mut().zip(local.iter_mut()) {
+                list.append(part);
             }
-        },
-    );
-    for list in lists.iter_mut() {
-        list.sort_unstable();
+        }
+    } else {
+        for (entity, walked) in candidates.iter() {
+            let Ok((entity, inherited, mut view_visibility, layers, aabb, transform, range, nfc)) =
+                casters.get_mut(entity)
+            else {
+                continue;
+            };
+            // A walked `NoFrustumCulling` entity comes again among those no walk finds.
+            if (walked && nfc) || !filter.admits(entity, inherited, layers, range) {
+                continue;
+            }
+            if test.place(entity, aabb, transform, nfc, lists) {
+                view_visibility.set_visible();
+            }
+        }
     }
+    lists.iter_mut().for_each(|list| list.sort_unstable());
 }
 
 /// Replaces `check_point_light_mesh_visibility`: the shadow casters of every point and spot
@@ -164,6 +241,7 @@ pub(crate) fn cull_point_and_spot_lights(
     mut candidates: Local<LightCandidates>,
     mut shape: Local<Vec<u32>>,
     mut face_lists: Local<[Vec<Entity>; 6]>,
+    mut threads: Local<ThreadLists>,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();
@@ -194,7 +272,7 @@ pub(crate) fn cull_point_and_spot_lights(
                 // plane), so the light sphere alone is walked; faces are tested per entity.
                 walk_shape(Some(&sphere), &[], &mut shape);
                 let view = (light, light);
-                candidates.gather(view, &shape, &trees, &untracked, &casters, |pair, found| {
+                candidates.gather(view, &shape, &trees, &untracked, |pair, found| {
                     walk_where(pair, found, |b| light_sphere_may_reach(&sphere, b));
                 });
                 let filter = ViewFilter {
@@ -207,20 +285,29 @@ pub(crate) fn cull_point_and_spot_lights(
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
                 }
-                decide_point_or_spot(
+                let test = PointOrSpotTest {
+                    sphere: &sphere,
+                    frusta: &frusta.frusta,
+                };
+                let flat = candidates.flat(trees.len());
+                decide_view(
                     &candidates,
+                    flat,
                     &mut casters,
                     &filter,
-                    &sphere,
-                    &frusta.frusta,
+                    &test,
                     &mut face_lists[..],
+                    &mut threads,
                 );
+                stats.flat_light_views += usize::from(flat);
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
                     face.shrink();
                 }
                 stats.light_views += 6;
-                stats.light_candidates += candidates.len();
+                if !flat {
+                    stats.light_candidates += candidates.len();
+                }
             }
             if let Ok((spot_light, transform, frustum, mut visible_entities, layers)) =
                 spot_lights.get_mut(light)
@@ -236,7 +323,7 @@ pub(crate) fn cull_point_and_spot_lights(
                 walk_shape(Some(&sphere), &[spot_planes], &mut shape);
                 let planes = AccelFrustum::from_planes(spot_planes);
                 let view = (light, light);
-                candidates.gather(view, &shape, &trees, &untracked, &casters, |pair, found| {
+                candidates.gather(view, &shape, &trees, &untracked, |pair, found| {
                     walk_where(pair, found, |b| {
                         light_sphere_may_reach(&sphere, b)
                             && planes.classify_aabb(b) != Containment::Outside
@@ -247,17 +334,26 @@ pub(crate) fn cull_point_and_spot_lights(
                     mask: layers.unwrap_or_default(),
                     ranges,
                 };
-                decide_point_or_spot(
+                let test = PointOrSpotTest {
+                    sphere: &sphere,
+                    frusta: core::slice::from_ref(frustum),
+                };
+                let flat = candidates.flat(trees.len());
+                decide_view(
                     &candidates,
+                    flat,
                     &mut casters,
                     &filter,
-                    &sphere,
-                    core::slice::from_ref(frustum),
+                    &test,
                     core::slice::from_mut(&mut visible_entities.entities),
+                    &mut threads,
                 );
+                stats.flat_light_views += usize::from(flat);
                 visible_entities.shrink();
                 stats.light_views += 1;
-                stats.light_candidates += candidates.len();
+                if !flat {
+                    stats.light_candidates += candidates.len();
+                }
             }
         }
     }
@@ -276,13 +372,14 @@ pub(crate) fn cull_directional_lights(
     mut lights: Query<DirectionalLightItem, Without<SpotLight>>,
     mut casters: Casters,
     mut candidates: Local<LightCandidates>,
-    mut scratch: Local<(Vec<u32>, Vec<[Vec4; 6]>)>,
+    mut scratch: Local<CascadeScratch>,
+    mut threads: Local<ThreadLists>,
     mut stats: ResMut<CullingStats>,
 ) {
     let start = Instant::now();
     let ranges = ranges.as_deref();
     candidates.start_frame(trees.is_changed());
-    let (shape, cascade_planes) = &mut *scratch;
+    let (shape, cascade_planes, cascade_lists) = &mut *scratch;
     for (light_entity, light, frusta, mut visible_entities, layers, light_visibility) in &mut lights
     {
         // The same bookkeeping as Bevy: one list per cascade of every view the light has
@@ -306,68 +403,48 @@ pub(crate) fn cull_directional_lights(
                 mask,
                 ranges,
             };
-            let lists = visible_entities
-                .get_mut(view)
-                .expect("made for every view above");
-            for list in lists.iter_mut() {
-                list.entities.clear();
-            }
+            let Some(cascades) = visible_entities.get_mut(view) else {
+                continue;
+            };
             cascade_planes.clear();
             cascade_planes.extend(view_frusta.iter().map(|f| light_planes(f, false)));
             walk_shape(None, cascade_planes, shape);
             let key = (light_entity, *view);
-            candidates.gather(key, shape, &trees, &untracked, &casters, |pair, found| {
+            candidates.gather(key, shape, &trees, &untracked, |pair, found| {
                 for planes in cascade_planes.iter() {
                     let planes = AccelFrustum::from_planes(*planes);
                     pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
                 }
             });
-            decide_cascades(&candidates, &mut casters, &filter, view_frusta, lists);
-            for list in lists.iter_mut() {
-                list.shrink();
-                list.entities.sort_unstable();
+            // As for cube faces: the cascades' lists go through scratch lists and back.
+            cascade_lists.resize_with(cascades.len(), Vec::new);
+            for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
+                core::mem::swap(&mut cascade.entities, list);
             }
+            let flat = candidates.flat(trees.len());
+            decide_view(
+                &candidates,
+                flat,
+                &mut casters,
+                &filter,
+                &CascadeTest {
+                    frusta: view_frusta,
+                },
+                &mut cascade_lists[..cascades.len()],
+                &mut threads,
+            );
+            for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
+                core::mem::swap(&mut cascade.entities, list);
+                cascade.shrink();
+            }
+            stats.flat_light_views += usize::from(flat);
             stats.light_views += view_frusta.len();
-            stats.light_candidates += candidates.len();
+            if !flat {
+                stats.light_candidates += candidates.len();
+            }
         }
     }
     candidates.end_frame();
     stats.reused_light_walks += candidates.reused;
     stats.light_time += start.elapsed();
-}
-
-/// Decides a view's cascades exactly as `check_dir_light_mesh_visibility` does (no near
-/// plane, no light sphere).
-fn decide_cascades(
-    candidates: &LightCandidates,
-    casters: &mut Casters,
-    filter: &ViewFilter,
-    view_frusta: &[Frustum],
-    lists: &mut [VisibleMeshEntities],
-) {
-    for_each_admitted(
-        candidates,
-        casters,
-        filter,
-        |entity, mut view_visibility, aabb, transform, nfc| {
-            let Some((aabb, transform)) = aabb.zip(transform) else {
-                view_visibility.set_visible();
-                for list in lists.iter_mut() {
-                    list.entities.push(entity);
-                }
-                return;
-            };
-            let affine: Affine3A = transform.affine();
-            let mut visible = false;
-            for (frustum, list) in view_frusta.iter().zip(lists.iter_mut()) {
-                if nfc || frustum.intersects_obb(aabb, &affine, false, true) {
-                    visible = true;
-                    list.entities.push(entity);
-                }
-            }
-            if visible {
-                view_visibility.set_visible();
-            }
-        },
-    );
 }

@@ -43,9 +43,12 @@ pub struct CullingStats {
     /// Shadow views of lights culled on the trees (point light cube faces, spot light
     /// frusta, directional light cascades per camera); cargo feature `light_culling`.
     pub light_views: usize,
-    /// Entities decided one by one for those views: what their tree walks found, plus the
-    /// entities no walk finds.
+    /// Entities decided one by one for those views on the tree path: what their walks found,
+    /// plus the entities no walk finds (views on the flat pass are not counted).
     pub light_candidates: usize,
+    /// Light views decided by the flat parallel pass over every caster (their walk found
+    /// most of the world, or the trees were stale).
+    pub flat_light_views: usize,
     /// Light views whose walk was kept from the last frame (neither the view nor the trees
     /// changed); their entities are still decided one by one.
     pub reused_light_walks: usize,
