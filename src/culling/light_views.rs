@@ -167,11 +167,13 @@ impl CasterTest for CascadeTest<'_> {
 /// and the cascades' lists.
 type CascadeScratch = (Vec<u32>, Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
 
-/// Per-thread lists of the flat pass.
-type ThreadLists = Parallel<Vec<Vec<Entity>>>;
+/// Per-thread lists of the flat pass, and how many casters each thread placed.
+type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
 
 /// Decides one light view into `lists` (sorted, as Bevy leaves them): its candidates one by
-/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop.
+/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop. Returns
+/// how many entities the view found: those its walk found, or, on the flat pass, those it
+/// placed.
 #[allow(clippy::too_many_arguments)]
 fn decide_view(
     candidates: &LightCandidates,
@@ -181,7 +183,7 @@ fn decide_view(
     test: &impl CasterTest,
     lists: &mut [Vec<Entity>],
     threads: &mut ThreadLists,
-) {
+) -> usize {
     lists.iter_mut().for_each(Vec::clear);
     if flat {
         let n = lists.len();
@@ -191,19 +193,25 @@ fn decide_view(
                 if !filter.admits(entity, inherited, layers, range) {
                     return;
                 }
-                if local.len() < n {
-                    local.resize_with(n, Vec::new);
+                let (parts, placed) = &mut **local;
+                if parts.len() < n {
+                    parts.resize_with(n, Vec::new);
                 }
-                if test.place(entity, aabb, transform, nfc, &mut local[..n]) {
+                if test.place(entity, aabb, transform, nfc, &mut parts[..n]) {
                     view_visibility.set_visible();
+                    *placed += 1;
                 }
             },
         );
-        for local in threads.iter_mut() {
-            for (list, part) in lists.iter_mut().zip(local.iter_mut()) {
+        let mut found = 0;
+        for (parts, placed) in threads.iter_mut() {
+            for (list, part) in lists.iter_mut().zip(parts.iter_mut()) {
                 list.append(part);
             }
+            found += core::mem::take(placed);
         }
+        lists.iter_mut().for_each(|list| list.sort_unstable());
+        found
     } else {
         for (entity, walked) in candidates.iter() {
             let Ok((entity, inherited, mut view_visibility, layers, aabb, transform, range, nfc)) =
@@ -219,8 +227,9 @@ fn decide_view(
                 view_visibility.set_visible();
             }
         }
+        lists.iter_mut().for_each(|list| list.sort_unstable());
+        candidates.walked_len()
     }
-    lists.iter_mut().for_each(|list| list.sort_unstable());
 }
 
 /// Replaces `check_point_light_mesh_visibility`: the shadow casters of every point and spot
@@ -290,7 +299,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: &frusta.frusta,
                 };
                 let flat = candidates.flat(trees.len());
-                decide_view(
+                let found = decide_view(
                     &candidates,
                     flat,
                     &mut casters,
@@ -299,6 +308,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     &mut face_lists[..],
                     &mut threads,
                 );
+                candidates.record(view, found, trees.len());
                 stats.flat_light_views += usize::from(flat);
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
@@ -339,7 +349,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: core::slice::from_ref(frustum),
                 };
                 let flat = candidates.flat(trees.len());
-                decide_view(
+                let found = decide_view(
                     &candidates,
                     flat,
                     &mut casters,
@@ -348,6 +358,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     core::slice::from_mut(&mut visible_entities.entities),
                     &mut threads,
                 );
+                candidates.record(view, found, trees.len());
                 stats.flat_light_views += usize::from(flat);
                 visible_entities.shrink();
                 stats.light_views += 1;
@@ -422,7 +433,7 @@ pub(crate) fn cull_directional_lights(
                 core::mem::swap(&mut cascade.entities, list);
             }
             let flat = candidates.flat(trees.len());
-            decide_view(
+            let found = decide_view(
                 &candidates,
                 flat,
                 &mut casters,
@@ -433,6 +444,7 @@ pub(crate) fn cull_directional_lights(
                 &mut cascade_lists[..cascades.len()],
                 &mut threads,
             );
+            candidates.record(key, found, trees.len());
             for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
                 core::mem::swap(&mut cascade.entities, list);
                 cascade.shrink();

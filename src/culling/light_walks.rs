@@ -82,6 +82,13 @@ pub(super) struct LightCandidates {
     others: Vec<Entity>,
     /// The trees were not current at the last gathering.
     stale: bool,
+    /// The last gathering skipped the walk: the view took the flat pass last frame and saw
+    /// most of the world.
+    skipped: bool,
+    /// Per view, the fraction of the tracked entities it found (walked, or placed by the flat
+    /// pass) last frame, and the frame it was recorded. Kept across tree changes: it decides
+    /// whether a walk is worth making at all.
+    fractions: HashMap<ViewKey, (f32, u32)>,
 }
 
 impl LightCandidates {
@@ -98,6 +105,13 @@ impl LightCandidates {
     pub(super) fn end_frame(&mut self) {
         let frame = self.frame;
         self.kept.retain(|_, k| k.used == frame);
+        self.fractions.retain(|_, (_, used)| *used == frame);
+    }
+
+    /// Records what view `view` found this frame: `found` of the `tracked` entities.
+    pub(super) fn record(&mut self, view: ViewKey, found: usize, tracked: usize) {
+        let fraction = found as f32 / tracked.max(1) as f32;
+        self.fractions.insert(view, (fraction, self.frame));
     }
 
     /// Gathers the candidates of light view `view`, whose walk is described by `shape`: the
@@ -117,6 +131,16 @@ impl LightCandidates {
         self.stale = !untracked.trees_current();
         if self.stale {
             self.kept.clear();
+            return;
+        }
+        // A view that saw most of the world last frame takes the flat pass again without
+        // walking: a walk of nearly every node would be thrown away (at 100k casters it cost
+        // the flat pass half again).
+        self.skipped = self
+            .fractions
+            .get(&view)
+            .is_some_and(|(f, _)| *f > FLAT_LIGHT_VIEW_ABOVE);
+        if self.skipped {
             return;
         }
         self.others.extend(untracked.iter());
@@ -158,11 +182,18 @@ impl LightCandidates {
     }
 
     /// Whether the view should be decided by Bevy's own flat loop over every caster: the trees
-    /// are stale, or the walk found more than [`FLAT_LIGHT_VIEW_ABOVE`] of the `tracked`
-    /// entities, where one lookup per candidate on one thread costs more than Bevy's
+    /// are stale, or the walk (or last frame's pass) found more than [`FLAT_LIGHT_VIEW_ABOVE`]
+    /// of the `tracked` entities, where one lookup per candidate on one thread costs more than Bevy's
     /// sequential scan spread over the task pool.
     pub(super) fn flat(&self, tracked: usize) -> bool {
-        self.stale || self.walked.len() as f32 > FLAT_LIGHT_VIEW_ABOVE * tracked as f32
+        self.stale
+            || self.skipped
+            || self.walked.len() as f32 > FLAT_LIGHT_VIEW_ABOVE * tracked as f32
+    }
+
+    /// How many entities the last walk found.
+    pub(super) fn walked_len(&self) -> usize {
+        self.walked.len()
     }
 }
 
