@@ -82,29 +82,20 @@ type DirectionalLightItem = (
     &'static ViewVisibility,
 );
 
-/// Bevy's bounds tests for one kind of light view: which of the view's lists (cube faces,
-/// the spot frustum, cascades) an admitted caster goes into.
-trait CasterTest: Sync {
-    /// Pushes `entity` into the lists whose frustum keeps it; returns whether any did (the
-    /// caster is then visible).
-    fn place(
-        &self,
-        entity: Entity,
-        aabb: Option<&Aabb>,
-        transform: Option<&GlobalTransform>,
-        no_frustum_culling: bool,
-        lists: &mut [Vec<Entity>],
-    ) -> bool;
-}
-
-/// `check_point_light_mesh_visibility`'s tests: the light sphere, then each face (or the spot
-/// frustum), near and far planes included.
-struct PointOrSpotTest<'a> {
-    sphere: &'a Sphere,
+/// Bevy's bounds tests for one light view: which of its lists (cube faces, the spot frustum,
+/// cascades) an admitted caster goes into.
+struct CasterTest<'a> {
+    /// The light's sphere, tested first (point and spot lights; `None` for cascades).
+    sphere: Option<&'a Sphere>,
+    /// One frustum per list.
     frusta: &'a [Frustum],
+    /// Whether the near plane is tested (not for cascades: a caster may stand before it).
+    near: bool,
 }
 
-impl CasterTest for PointOrSpotTest<'_> {
+impl CasterTest<'_> {
+    /// Pushes `entity` into the lists whose frustum keeps it, as bevy_light does; returns
+    /// whether any did (the caster is then visible). Casters without bounds go everywhere.
     fn place(
         &self,
         entity: Entity,
@@ -117,44 +108,17 @@ impl CasterTest for PointOrSpotTest<'_> {
             lists.iter_mut().for_each(|list| list.push(entity));
             return true;
         };
-        let model_to_world = transform.affine();
-        if !nfc && !self.sphere.intersects_obb(aabb, &model_to_world) {
+        let model_to_world: Affine3A = transform.affine();
+        if !nfc
+            && self
+                .sphere
+                .is_some_and(|sphere| !sphere.intersects_obb(aabb, &model_to_world))
+        {
             return false;
         }
         let mut visible = false;
         for (frustum, list) in self.frusta.iter().zip(lists.iter_mut()) {
-            if nfc || frustum.intersects_obb(aabb, &model_to_world, true, true) {
-                visible = true;
-                list.push(entity);
-            }
-        }
-        visible
-    }
-}
-
-/// `check_dir_light_mesh_visibility`'s tests: each cascade without its near plane, no light
-/// sphere.
-struct CascadeTest<'a> {
-    frusta: &'a [Frustum],
-}
-
-impl CasterTest for CascadeTest<'_> {
-    fn place(
-        &self,
-        entity: Entity,
-        aabb: Option<&Aabb>,
-        transform: Option<&GlobalTransform>,
-        nfc: bool,
-        lists: &mut [Vec<Entity>],
-    ) -> bool {
-        let (Some(aabb), Some(transform)) = (aabb, transform) else {
-            lists.iter_mut().for_each(|list| list.push(entity));
-            return true;
-        };
-        let affine: Affine3A = transform.affine();
-        let mut visible = false;
-        for (frustum, list) in self.frusta.iter().zip(lists.iter_mut()) {
-            if nfc || frustum.intersects_obb(aabb, &affine, false, true) {
+            if nfc || frustum.intersects_obb(aabb, &model_to_world, self.near, true) {
                 visible = true;
                 list.push(entity);
             }
@@ -180,7 +144,7 @@ fn decide_view(
     flat: bool,
     casters: &mut Casters,
     filter: &ViewFilter,
-    test: &impl CasterTest,
+    test: &CasterTest,
     lists: &mut [Vec<Entity>],
     threads: &mut ThreadLists,
 ) -> usize {
@@ -294,9 +258,10 @@ pub(crate) fn cull_point_and_spot_lights(
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
                 }
-                let test = PointOrSpotTest {
-                    sphere: &sphere,
+                let test = CasterTest {
+                    sphere: Some(&sphere),
                     frusta: &frusta.frusta,
+                    near: true,
                 };
                 let flat = candidates.flat(trees.len());
                 let found = decide_view(
@@ -344,9 +309,10 @@ pub(crate) fn cull_point_and_spot_lights(
                     mask: layers.unwrap_or_default(),
                     ranges,
                 };
-                let test = PointOrSpotTest {
-                    sphere: &sphere,
+                let test = CasterTest {
+                    sphere: Some(&sphere),
                     frusta: core::slice::from_ref(frustum),
+                    near: true,
                 };
                 let flat = candidates.flat(trees.len());
                 let found = decide_view(
@@ -438,8 +404,10 @@ pub(crate) fn cull_directional_lights(
                 flat,
                 &mut casters,
                 &filter,
-                &CascadeTest {
+                &CasterTest {
+                    sphere: None,
                     frusta: view_frusta,
+                    near: false,
                 },
                 &mut cascade_lists[..cascades.len()],
                 &mut threads,
