@@ -8,7 +8,7 @@
 //! Bevy's tests would drop, so the results are Bevy's.
 
 use super::light_walks::{
-    LightCandidates, light_planes, light_sphere_may_reach, walk_shape, walk_where,
+    LightCandidates, ViewKey, light_planes, light_sphere_may_reach, walk_shape, walk_where,
 };
 use super::system::{CullingStats, ViewFilter};
 use super::untracked::UntrackedEntities;
@@ -138,8 +138,7 @@ type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
 /// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop. Returns
 /// how many entities the view found: those its walk found, or, on the flat pass, those it
 /// placed.
-#[allow(clippy::too_many_arguments)]
-fn decide_view(
+fn decide_lists(
     candidates: &LightCandidates,
     flat: bool,
     casters: &mut Casters,
@@ -193,6 +192,32 @@ fn decide_view(
         }
         lists.iter_mut().for_each(|list| list.sort_unstable());
         candidates.walked_len()
+    }
+}
+
+/// Decides light view `view` into `lists` (see [`decide_lists`]), on the flat pass when
+/// [`LightCandidates::flat`] says so, records what it found for the next frame's choice, and
+/// counts it in `stats`.
+#[allow(clippy::too_many_arguments)]
+fn decide_view(
+    view: ViewKey,
+    candidates: &mut LightCandidates,
+    casters: &mut Casters,
+    filter: &ViewFilter,
+    test: &CasterTest,
+    lists: &mut [Vec<Entity>],
+    threads: &mut ThreadLists,
+    stats: &mut CullingStats,
+    tracked: usize,
+) {
+    let flat = candidates.flat(tracked);
+    let found = decide_lists(candidates, flat, casters, filter, test, lists, threads);
+    candidates.record(view, found, tracked);
+    stats.light_views += lists.len();
+    if flat {
+        stats.flat_light_views += 1;
+    } else {
+        stats.light_candidates += candidates.len();
     }
 }
 
@@ -263,25 +288,20 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: &frusta.frusta,
                     near: true,
                 };
-                let flat = candidates.flat(trees.len());
-                let found = decide_view(
-                    &candidates,
-                    flat,
+                decide_view(
+                    view,
+                    &mut candidates,
                     &mut casters,
                     &filter,
                     &test,
                     &mut face_lists[..],
                     &mut threads,
+                    &mut stats,
+                    trees.len(),
                 );
-                candidates.record(view, found, trees.len());
-                stats.flat_light_views += usize::from(flat);
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
                     face.shrink();
-                }
-                stats.light_views += 6;
-                if !flat {
-                    stats.light_candidates += candidates.len();
                 }
             }
             if let Ok((spot_light, transform, frustum, mut visible_entities, layers)) =
@@ -314,23 +334,18 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: core::slice::from_ref(frustum),
                     near: true,
                 };
-                let flat = candidates.flat(trees.len());
-                let found = decide_view(
-                    &candidates,
-                    flat,
+                decide_view(
+                    view,
+                    &mut candidates,
                     &mut casters,
                     &filter,
                     &test,
                     core::slice::from_mut(&mut visible_entities.entities),
                     &mut threads,
+                    &mut stats,
+                    trees.len(),
                 );
-                candidates.record(view, found, trees.len());
-                stats.flat_light_views += usize::from(flat);
                 visible_entities.shrink();
-                stats.light_views += 1;
-                if !flat {
-                    stats.light_candidates += candidates.len();
-                }
             }
         }
     }
@@ -398,10 +413,9 @@ pub(crate) fn cull_directional_lights(
             for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
                 core::mem::swap(&mut cascade.entities, list);
             }
-            let flat = candidates.flat(trees.len());
-            let found = decide_view(
-                &candidates,
-                flat,
+            decide_view(
+                key,
+                &mut candidates,
                 &mut casters,
                 &filter,
                 &CasterTest {
@@ -411,16 +425,12 @@ pub(crate) fn cull_directional_lights(
                 },
                 &mut cascade_lists[..cascades.len()],
                 &mut threads,
+                &mut stats,
+                trees.len(),
             );
-            candidates.record(key, found, trees.len());
             for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
                 core::mem::swap(&mut cascade.entities, list);
                 cascade.shrink();
-            }
-            stats.flat_light_views += usize::from(flat);
-            stats.light_views += view_frusta.len();
-            if !flat {
-                stats.light_candidates += candidates.len();
             }
         }
     }

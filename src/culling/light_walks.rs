@@ -64,7 +64,7 @@ struct KeptWalk {
 
 /// Which light view a walk was of: the light, and the camera for a directional light's
 /// cascades (the light again for point and spot lights).
-type ViewKey = (Entity, Entity);
+pub(super) type ViewKey = (Entity, Entity);
 
 /// The entities one light view decides, each once.
 #[derive(Default)]
