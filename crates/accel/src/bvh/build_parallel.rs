@@ -1,6 +1,6 @@
 //! The parallel build: the same splits as the serial builder, subtrees built on rayon's pool.
 
-use super::build::{BuildPrim, build_subtree, collect_prims, split_node};
+use super::build::{BuildPrim, NodeBounds, build_subtree_within, collect_prims, split_node};
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
 use crate::Aabb;
@@ -22,31 +22,36 @@ pub(super) fn build_nodes_parallel(
         return super::build::build_nodes(bounds, config);
     }
     let mut prims = collect_prims(bounds);
-    let nodes = build_parallel(&mut prims, config, 0, 0);
-    (nodes, prims.iter().map(|p| p.index).collect())
+    if prims.is_empty() {
+        return (Vec::new(), Vec::new());
+    }
+    let bounds = NodeBounds::of(&prims);
+    let nodes = build_parallel(&mut prims, bounds, config, 0, 0);
+    (nodes, prims.iter().map(BuildPrim::index).collect())
 }
 
+/// Builds over non-empty `prims`, whose bounds are `bounds`.
 fn build_parallel(
     prims: &mut [BuildPrim],
+    bounds: NodeBounds,
     config: &BuildConfig,
     prim_offset: usize,
     depth: u32,
 ) -> Vec<BvhNode> {
     if prims.len() < SERIAL_BELOW {
-        return build_subtree(prims, config, prim_offset, depth);
+        return build_subtree_within(prims, bounds, config, prim_offset, depth);
     }
-    let (node_bounds, mid) = split_node(prims, depth, config);
     let mut root = BvhNode::default();
-    root.set_aabb(&node_bounds);
-    let Some(mid) = mid else {
+    root.set_aabb(&bounds.node);
+    let Some((mid, [left_bounds, right_bounds])) = split_node(prims, &bounds, depth, config) else {
         root.first = prim_offset as u32;
         root.count = prims.len() as u32;
         return vec![root];
     };
     let (left, right) = prims.split_at_mut(mid);
     let (l, r) = rayon::join(
-        || build_parallel(left, config, prim_offset, depth + 1),
-        || build_parallel(right, config, prim_offset + mid, depth + 1),
+        || build_parallel(left, left_bounds, config, prim_offset, depth + 1),
+        || build_parallel(right, right_bounds, config, prim_offset + mid, depth + 1),
     );
     // Layout: root, left root, right root, then the rest of each subtree. Keeping the two
     // children adjacent is what lets one index name both.

@@ -177,7 +177,7 @@ pub(super) fn layout_tree(
                 })
                 .collect();
             let sub = build_subtree(&mut build, &top_down, prims.len(), depth);
-            prims.extend(build.iter().map(|p| p.index));
+            prims.extend(build.iter().map(BuildPrim::index));
             // `sub` has its root at 0 and the rest after it; the root takes `slot`.
             let base = nodes.len() as u32;
             let place = |mut node: BvhNode| {

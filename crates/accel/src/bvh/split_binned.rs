@@ -1,6 +1,6 @@
 //! Binned SAH (Wald 2007): the best of `bins - 1` candidate planes per axis, in two passes.
 
-use super::build::{BuildPrim, SplitOutcome, partition};
+use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid, partition_by_centroid};
 use super::config::BuildConfig;
 use crate::Aabb;
 use glam::Vec3A;
@@ -17,17 +17,28 @@ pub(super) fn split(
     config: &BuildConfig,
     may_stop: bool,
 ) -> SplitOutcome {
+    // A split costs at least the traversal step, so a node whose leaf costs no more is a leaf
+    // whatever the bins would say; most of these are pairs, a quarter of a large tree's nodes.
+    if may_stop && config.sah.intersection * prims.len() as f32 <= config.sah.traversal {
+        return SplitOutcome::Leaf;
+    }
     // Only as many bins as there are primitives can be non-empty. Most nodes of a tree are
     // small, and clearing 3 x 64 bin boxes for each would cost more than binning its
     // primitives: the bin arrays are sized to the node.
     let bins = bins.clamp(2, MAX_BINS).min(prims.len().max(2));
+    // Corners of at most half the largest float add without overflow, which lets the binning
+    // work on `lo + hi` (see `BinMap`); beyond that, the clamped centroid of `centroid`.
+    let half_max = Vec3A::splat(f32::MAX / 2.0);
+    let sums_finite =
+        node_bounds.min.abs().cmple(half_max).all() && node_bounds.max.abs().cmple(half_max).all();
     let args = (prims, node_bounds, centroid_bounds, bins, config, may_stop);
-    match bins {
-        0..=4 => split_with::<4>(args),
-        5..=8 => split_with::<8>(args),
-        9..=16 => split_with::<16>(args),
-        17..=32 => split_with::<32>(args),
-        _ => split_with::<MAX_BINS>(args),
+    match (bins, sums_finite) {
+        (0..=4, true) => split_with::<4, true>(args),
+        (5..=8, true) => split_with::<8, true>(args),
+        (9..=16, true) => split_with::<16, true>(args),
+        (17..=32, true) => split_with::<32, true>(args),
+        (_, true) => split_with::<MAX_BINS, true>(args),
+        (_, false) => split_with::<MAX_BINS, false>(args),
     }
 }
 
@@ -40,12 +51,39 @@ type SplitArgs<'a> = (
     bool,
 );
 
-fn split_with<const B: usize>(
+/// Where a primitive falls among the bins: `(c - origin) * scale` for its centroid `c`.
+///
+/// With `SUMS` (every corner of the node at most half the largest float), this is computed as
+/// `(lo + hi - 2 origin) * (scale / 2)`: three vector operations where the clamped centroid
+/// takes nine, in the build's hottest loop. The two agree bit for bit, since scaling by two is
+/// exact: `(lo + hi) / 2` rounds once, as `lo / 2 + hi / 2` does.
+struct BinMap<const SUMS: bool> {
+    origin: Vec3A,
+    scale: Vec3A,
+    last: Vec3A,
+}
+
+impl<const SUMS: bool> BinMap<SUMS> {
+    /// The point binned for `p`: its centroid, doubled when `SUMS`.
+    #[inline(always)]
+    fn point(p: &BuildPrim) -> Vec3A {
+        let b = p.bounds();
+        if SUMS { b.min + b.max } else { centroid(&b) }
+    }
+
+    /// The bin coordinates of a point from [`Self::point`], clamped to the bins.
+    #[inline(always)]
+    fn coordinates(&self, point: Vec3A) -> Vec3A {
+        ((point - self.origin) * self.scale)
+            .min(self.last)
+            .max(Vec3A::ZERO)
+    }
+}
+
+fn split_with<const B: usize, const SUMS: bool>(
     (prims, node_bounds, centroid_bounds, bins, config, may_stop): SplitArgs<'_>,
 ) -> SplitOutcome {
     let extent = centroid_bounds.extent();
-    let origin = centroid_bounds.min;
-    let last = Vec3A::splat((bins - 1) as f32);
     // Scale so that the largest centroid lands just inside the last bin; axes with no extent
     // get scale 0 and put everything in bin 0, where no plane can split them.
     let scale = Vec3A::select(
@@ -53,16 +91,26 @@ fn split_with<const B: usize>(
         Vec3A::splat(bins as f32 * (1.0 - 1e-6)) / extent,
         Vec3A::ZERO,
     );
-    let bin_of = |c: Vec3A| ((c - origin) * scale).min(last).max(Vec3A::ZERO);
+    let map = BinMap::<SUMS> {
+        origin: if SUMS {
+            centroid_bounds.min * 2.0
+        } else {
+            centroid_bounds.min
+        },
+        scale: if SUMS { scale * 0.5 } else { scale },
+        last: Vec3A::splat((bins - 1) as f32),
+    };
     let mut bin_bounds = [[Aabb::EMPTY; B]; 3];
     let mut bin_count = [[0u32; B]; 3];
     for p in prims.iter() {
         // Truncate all three coordinates at once and index plain arrays: indexing `Vec3A` by
-        // a run-time axis is a `match`, which dominated this loop.
-        let b = bin_indices(bin_of(p.centroid));
+        // a run-time axis is a `match`, which dominated this loop. The mask (`B` is a power of
+        // two, the index already below `bins`) only spares the bounds checks.
+        let b = bin_indices(map.coordinates(BinMap::<SUMS>::point(p)));
+        let bounds = p.bounds();
         for axis in 0..3 {
-            let i = b[axis] as usize;
-            bin_bounds[axis][i] = bin_bounds[axis][i].union(&p.bounds);
+            let i = b[axis] as usize & (B - 1);
+            bin_bounds[axis][i] = bin_bounds[axis][i].union(&bounds);
             bin_count[axis][i] += 1;
         }
     }
@@ -112,14 +160,39 @@ fn split_with<const B: usize>(
             return SplitOutcome::Leaf;
         }
     }
-    // The binning put a primitive in bin `floor(clamp(v, 0, bins - 1))` with
-    // `v = (c - o) * sc`; it is in a bin at or left of `plane` (at most `bins - 2`) exactly when
+    // The binning put a primitive in bin `floor(clamp(v, 0, bins - 1))` with `v` its bin
+    // coordinate; it is in a bin at or left of `plane` (at most `bins - 2`) exactly when
     // `v < plane + 1`. Comparing floats skips a saturating float-to-integer conversion per
     // primitive, a few branches each.
-    let (o, sc, limit) = (origin[axis], scale[axis], (plane + 1) as f32);
-    let mid = partition(prims, |p| (p.centroid.to_array()[axis] - o) * sc < limit);
+    let (o, sc, limit) = (map.origin[axis], map.scale[axis], (plane + 1) as f32);
+    let (mid, points) = partition_by_centroid(prims, BinMap::<SUMS>::point, |point| {
+        (point.to_array()[axis] - o) * sc < limit
+    });
     debug_assert!(mid > 0 && mid < prims.len());
-    SplitOutcome::Split(mid)
+    let centroids = points.map(|b| match SUMS {
+        true => Aabb {
+            min: b.min * 0.5,
+            max: b.max * 0.5,
+        },
+        false => b,
+    });
+    // The children's boxes are the unions of the bins on each side of the plane: exactly
+    // what a pass over each child would find (a union does not depend on order).
+    let side = |bins: &[Aabb]| bins.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
+    let (left, right) = bin_bounds[axis][..bins].split_at(plane + 1);
+    SplitOutcome::SplitWithBounds(
+        mid,
+        [
+            NodeBounds {
+                node: side(left),
+                centroids: centroids[0],
+            },
+            NodeBounds {
+                node: side(right),
+                centroids: centroids[1],
+            },
+        ],
+    )
 }
 
 /// The bins of a centroid on the three axes, from its bin coordinates (already clamped to

@@ -8,7 +8,7 @@ use crate::Aabb;
 pub(super) fn midpoint(prims: &mut [BuildPrim], centroid_bounds: &Aabb) -> SplitOutcome {
     let axis = centroid_bounds.longest_axis();
     let plane = centroid_bounds.center()[axis];
-    let mid = partition(prims, |p| p.centroid[axis] < plane);
+    let mid = partition(prims, |p| p.centroid()[axis] < plane);
     if mid == 0 || mid == prims.len() {
         return median(prims, centroid_bounds);
     }
@@ -19,6 +19,8 @@ pub(super) fn midpoint(prims: &mut [BuildPrim], centroid_bounds: &Aabb) -> Split
 pub(super) fn median(prims: &mut [BuildPrim], centroid_bounds: &Aabb) -> SplitOutcome {
     let axis = centroid_bounds.longest_axis();
     let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    prims.select_nth_unstable_by(mid, |a, b| {
+        a.centroid()[axis].total_cmp(&b.centroid()[axis])
+    });
     SplitOutcome::Split(mid)
 }

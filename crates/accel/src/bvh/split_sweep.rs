@@ -19,15 +19,15 @@ pub(super) fn split(
         sort_on(prims, axis);
         let mut acc = Aabb::EMPTY;
         for i in (1..n).rev() {
-            acc = acc.union(&prims[i].bounds);
+            acc = acc.union(&prims[i].bounds());
             right_area[i] = acc.half_area();
         }
         let mut acc = Aabb::EMPTY;
         for i in 0..n - 1 {
-            acc = acc.union(&prims[i].bounds);
+            acc = acc.union(&prims[i].bounds());
             // Splitting between equal centroids would make the split depend on sort order,
             // not geometry; the binned builder cannot do it either.
-            if prims[i].centroid[axis] == prims[i + 1].centroid[axis] {
+            if prims[i].centroid()[axis] == prims[i + 1].centroid()[axis] {
                 continue;
             }
             let left_n = (i + 1) as f32;
@@ -56,8 +56,8 @@ pub(super) fn split(
 
 fn sort_on(prims: &mut [BuildPrim], axis: usize) {
     prims.sort_unstable_by(|a, b| {
-        a.centroid[axis]
-            .total_cmp(&b.centroid[axis])
-            .then(a.index.cmp(&b.index))
+        a.centroid()[axis]
+            .total_cmp(&b.centroid()[axis])
+            .then(a.index().cmp(&b.index()))
     });
 }
