@@ -19,6 +19,7 @@ mod build_parallel;
 pub mod config;
 mod morton;
 mod node;
+mod partition;
 mod ploc;
 mod ploc_search;
 mod ploc_tree;

@@ -1,7 +1,8 @@
 //! Binned SAH (Wald 2007): the best of `bins - 1` candidate planes per axis, in two passes.
 
-use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid, partition_by_centroid};
+use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid};
 use super::config::BuildConfig;
+use super::partition::partition_by_centroid;
 use crate::Aabb;
 use glam::Vec3A;
 

@@ -57,7 +57,9 @@
 //! assert!(tree.remove(handles[3]).is_err());
 //! ```
 
+mod config;
 mod flatten;
+mod handle;
 mod insert;
 mod node;
 mod optimize;
@@ -70,6 +72,8 @@ mod remove;
 mod rotate;
 mod validate;
 
+pub use config::DynamicBvhConfig;
+pub use handle::{DynamicBvhError, LeafHandle};
 pub use optimize::OptimizeReport;
 pub use pair::StaticDynamicPair;
 pub use quality::{MaintainReport, QualityEstimate};
@@ -78,145 +82,7 @@ pub use validate::DynamicValidationError;
 use crate::bvh::stats::{TreeStats, tree_stats};
 use crate::query::BoundingTree;
 use crate::{Aabb, SahCosts};
-use core::time::Duration;
-use glam::Vec3A;
 use node::{Arena, FLAG_DIRTY, FLAG_JUMPED, NULL};
-use std::fmt;
-
-/// A stable reference to one leaf of a [`DynamicBvh`]: valid from `insert` until `remove`.
-///
-/// It holds the leaf's arena index (leaves never move) and the slot's generation, so a handle
-/// kept past `remove` is reported as stale instead of naming whatever later reused the slot.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct LeafHandle {
-    index: u32,
-    generation: u32,
-}
-
-impl LeafHandle {
-    /// The leaf's node index in the tree (a [`BoundingTree`] node id).
-    pub fn index(self) -> u32 {
-        self.index
-    }
-
-    /// The handle packed into 64 bits (to store it in a component or a slot map).
-    pub fn to_bits(self) -> u64 {
-        (u64::from(self.generation) << 32) | u64::from(self.index)
-    }
-
-    /// The handle packed by [`LeafHandle::to_bits`].
-    pub fn from_bits(bits: u64) -> Self {
-        Self {
-            index: bits as u32,
-            generation: (bits >> 32) as u32,
-        }
-    }
-}
-
-/// Why a dynamic-tree edit was refused. The tree is unchanged when one is returned.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DynamicBvhError {
-    /// The box has a NaN or infinite coordinate, or `min > max`: it would poison every
-    /// ancestor's box (NaN fails every comparison and hides whole subtrees from queries).
-    InvalidBounds,
-    /// The handle was removed (or never came from this tree).
-    StaleHandle,
-    /// The tree already holds 2^31 - 1 nodes.
-    CapacityExceeded,
-}
-
-impl fmt::Display for DynamicBvhError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::InvalidBounds => f.write_str("bounds are NaN, infinite or inverted"),
-            Self::StaleHandle => f.write_str("the handle does not name a live leaf"),
-            Self::CapacityExceeded => f.write_str("the dynamic BVH is full (2^31 - 1 nodes)"),
-        }
-    }
-}
-
-impl std::error::Error for DynamicBvhError {}
-
-/// Tuning of a [`DynamicBvh`]; the defaults suit game worlds measured in metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DynamicBvhConfig {
-    /// Absolute growth of each side of a leaf's box, in world units. Box2D uses 0.1 m: motion
-    /// within it touches nothing but the leaf.
-    pub margin: f32,
-    /// Further growth of each side as a fraction of the box's extent on that axis, so large
-    /// objects (whose absolute motion is typically larger) get proportionally fatter leaves.
-    pub relative_margin: f32,
-    /// When a leaf outgrows its fat box, the new fat box also reaches ahead along the leaf's
-    /// last displacement, by this multiple of it (Box2D 2.4's `b2_aabbMultiplier`, 4 there):
-    /// a steadily moving object then leaves its fat box every few steps instead of every
-    /// step, and each escape costs a refit of its path. 0 turns it off.
-    pub motion_prediction: f32,
-    /// Apply Kopta 2012 local rotations on insertion and on refit paths.
-    pub rotations: bool,
-    /// Wall-clock budget of the optimiser per [`DynamicBvh::maintain`] call.
-    pub optimize_budget: Duration,
-    /// Most internal nodes the optimiser reinserts per call (also bounds the work when the
-    /// clock is coarse).
-    pub optimize_max_reinsertions: usize,
-    /// Rebuild when the estimated SAH cost exceeds this multiple of a fresh build's.
-    pub rebuild_threshold: f32,
-    /// Run rebuilds on a background thread and swap the result in at a later `maintain`.
-    pub background_rebuild: bool,
-    /// Below this many leaves `maintain` never rebuilds (a rebuild costs more than it saves).
-    pub min_leaves_for_rebuild: usize,
-    /// The SAH cost model for the quality monitor and the optimiser.
-    pub sah: SahCosts,
-    /// Run the whole-tree refit (the refit of a frame in which most leaves moved) on rayon's
-    /// pool, level by level, the wide levels in chunks. The result is the same bits as on one
-    /// thread. Needs the cargo feature `rayon`; without it this is ignored.
-    ///
-    /// Off by default: on the two-vCPU benchmark VM the parallel replay measured slower than
-    /// one thread (55-115 against 43-55 ns per leaf at 100k leaves, `dynamic_timing
-    /// --features rayon`), the replay being bound by memory bandwidth the vCPUs share. Worth
-    /// measuring on a machine with more cores and memory channels.
-    pub parallel_refit: bool,
-}
-
-impl Default for DynamicBvhConfig {
-    fn default() -> Self {
-        Self {
-            margin: 0.1,
-            relative_margin: 0.05,
-            motion_prediction: 2.0,
-            rotations: true,
-            optimize_budget: Duration::from_micros(800),
-            optimize_max_reinsertions: 512,
-            rebuild_threshold: 1.3,
-            background_rebuild: false,
-            min_leaves_for_rebuild: 256,
-            sah: SahCosts::default(),
-            parallel_refit: false,
-        }
-    }
-}
-
-impl DynamicBvhConfig {
-    /// The fat box stored for a tight one.
-    #[inline]
-    pub fn fatten(&self, tight: &Aabb) -> Aabb {
-        tight.expanded(Vec3A::splat(self.margin) + tight.extent() * self.relative_margin)
-    }
-
-    /// The fat box for a leaf that moved from `previous` to `tight`: [`Self::fatten`], reaching
-    /// further ahead along the displacement by [`Self::motion_prediction`] times it.
-    #[inline]
-    pub fn fatten_moving(&self, previous: &Aabb, tight: &Aabb) -> Aabb {
-        let fat = self.fatten(tight);
-        let ahead = (tight.center() - previous.center()) * self.motion_prediction;
-        if !ahead.is_finite() {
-            return fat;
-        }
-        Aabb::new(
-            fat.min + ahead.min(Vec3A::ZERO),
-            fat.max + ahead.max(Vec3A::ZERO),
-        )
-    }
-}
 
 /// A dynamic bounding-volume hierarchy keyed by stable [`LeafHandle`]s; see the
 /// [module docs](self).

@@ -1,8 +1,11 @@
 //! Random scenes and query inputs for the tree tests: uniform, clustered and degenerate.
 #![allow(dead_code)]
 
-use accel::{Aabb, Frustum, Ray};
+use accel::dynamic::{DynamicBvh, LeafHandle};
+use accel::{Aabb, Containment, Frustum, Ray, SpatialQuery};
+use core::ops::ControlFlow;
 use glam::{Mat4, Vec3, Vec3A};
+use std::collections::HashMap;
 
 /// A small, fast, seedable generator (PCG32): the tests need reproducible streams, not
 /// cryptographic ones, and no dependency.
@@ -124,4 +127,104 @@ pub fn random_frustum(rng: &mut Rng, extent: f32) -> Frustum {
         Mat4::perspective_rh(fov, rng.range(0.5, 2.0), 0.1, extent * 2.0)
     };
     Frustum::from_clip_from_world(&(proj * view))
+}
+
+/// A random box: centre within `extent` of the origin, half extents 0.05 to 1.5.
+pub fn random_box(rng: &mut Rng, extent: f32) -> Aabb {
+    Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.05, 1.5))
+}
+
+/// Compares every query with brute force over `model` (id -> tight box).
+pub fn check_queries<T: SpatialQuery>(
+    tree: &T,
+    model: &HashMap<u32, Aabb>,
+    rng: &mut Rng,
+    extent: f32,
+    n: usize,
+) {
+    let boxes: Vec<(u32, Aabb)> = model.iter().map(|(&i, &b)| (i, b)).collect();
+    for ray in rays(n, u64::from(rng.next_u32()), extent * 1.2) {
+        let want = boxes
+            .iter()
+            .filter_map(|(_, b)| ray.intersect_aabb(b))
+            .min_by(f32::total_cmp);
+        let got = tree.cast_ray(&ray, |i, r| r.intersect_aabb(&model[&i]));
+        assert_eq!(got.map(|h| h.t), want, "closest hit, ray {ray:?}");
+        let any = tree.cast_ray_any(&ray, |i, r| r.hits_aabb(&model[&i]));
+        assert_eq!(any.is_some(), want.is_some(), "any hit");
+    }
+    for _ in 0..n {
+        let q =
+            Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.0, extent * 0.2));
+        let mut got = Vec::new();
+        tree.for_each_overlapping_aabb(&q, |i| {
+            if model[&i].intersects_aabb(&q) {
+                got.push(i);
+            }
+            ControlFlow::Continue(())
+        });
+        got.sort_unstable();
+        let mut want: Vec<u32> = boxes
+            .iter()
+            .filter(|(_, b)| b.intersects_aabb(&q))
+            .map(|&(i, _)| i)
+            .collect();
+        want.sort_unstable();
+        assert_eq!(got, want, "box overlap");
+
+        let f = random_frustum(rng, extent);
+        let mut got = Vec::new();
+        tree.for_each_in_frustum(&f, |i, c| {
+            let exact = f.classify_aabb(&model[&i]);
+            if c == Containment::Inside {
+                assert_eq!(
+                    exact,
+                    Containment::Inside,
+                    "subtree accepted but primitive not inside"
+                );
+            }
+            if exact != Containment::Outside {
+                got.push(i);
+            }
+        });
+        got.sort_unstable();
+        let mut want: Vec<u32> = boxes
+            .iter()
+            .filter(|(_, b)| f.intersects_aabb(b))
+            .map(|&(i, _)| i)
+            .collect();
+        want.sort_unstable();
+        assert_eq!(got, want, "frustum");
+    }
+}
+
+/// The tree's ids equal the model's, each exactly once, and every handle is live.
+pub fn check_ids(
+    tree: &DynamicBvh,
+    model: &HashMap<u32, Aabb>,
+    handles: &HashMap<u32, LeafHandle>,
+) {
+    assert_eq!(tree.len(), model.len());
+    // Ids are small and dense: a flag per id is much cheaper than a set at 100k leaves, which
+    // matters when this runs after every frame.
+    let mut seen = vec![false; model.keys().max().map_or(0, |&m| m as usize + 1)];
+    let mut count = 0;
+    for (h, id, tight) in tree.leaves() {
+        let slot = seen.get_mut(id as usize);
+        assert!(
+            slot.as_ref().is_some_and(|s| !**s),
+            "id {id} duplicated or unknown"
+        );
+        if let Some(s) = slot {
+            *s = true;
+        }
+        count += 1;
+        assert_eq!(
+            model.get(&id),
+            Some(&tight),
+            "id {id} not in the model, or its box differs"
+        );
+        assert_eq!(handles[&id], h, "id {id} has another handle");
+    }
+    assert_eq!(count, model.len(), "an id was lost");
 }
