@@ -29,3 +29,15 @@ pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
 pub use query::{BoundingTree, RayHit, SpatialQuery};
+
+/// A seeded stream of floats in `[0, 1)` (xorshift64) for the unit tests: reproducible, and no
+/// dependency.
+#[cfg(test)]
+pub(crate) fn test_floats(mut state: u64) -> impl FnMut() -> f32 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
+}

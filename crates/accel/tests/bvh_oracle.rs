@@ -6,11 +6,9 @@ mod scenes;
 use accel::bvh::SphereBvh;
 use accel::bvh::stats::tree_stats;
 use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
-use accel::{
-    Aabb, BuildConfig, Bvh, Containment, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy,
-};
+use accel::{Aabb, BuildConfig, Bvh, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
 use core::ops::ControlFlow;
-use scenes::{Rng, SceneKind, random_frustum, rays, scene};
+use scenes::{Rng, SceneKind, frustum_hits, random_frustum, rays, scene};
 
 const STRATEGIES: [SplitStrategy; 8] = [
     SplitStrategy::Midpoint,
@@ -169,21 +167,7 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
 
         // Frustum: every box the exact test keeps is reported, and "inside" is never wrong.
         let f = random_frustum(&mut rng, extent);
-        let mut got = Vec::new();
-        bvh.for_each_in_frustum(&f, |i, c| {
-            let exact = f.classify_aabb(&boxes[i as usize]);
-            if c == Containment::Inside {
-                assert_eq!(
-                    exact,
-                    Containment::Inside,
-                    "subtree accepted but primitive not inside"
-                );
-            }
-            if exact != Containment::Outside {
-                got.push(i);
-            }
-        });
-        got.sort_unstable();
+        let got = frustum_hits(bvh, &f, |i| boxes[i as usize]);
         let want: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| f.intersects_aabb(&boxes[i as usize]))
             .collect();

@@ -200,13 +200,7 @@ mod tests {
     /// sides.
     #[test]
     fn block_partition_matches_a_filter() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_floats(0x9e37_79b9_7f4a_7c15);
         let b = PARTITION_BLOCK;
         for n in [
             0,

@@ -305,13 +305,7 @@ mod tests {
     /// node's box and height, and the internal-area sum the quality monitor reads.
     #[test]
     fn parallel_replay_matches_one_thread_bit_for_bit() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_floats(0x9e37_79b9_7f4a_7c15);
         let boxes: Vec<Aabb> = (0..40_000)
             .map(|_| {
                 let c = Vec3A::new(next(), next(), next()) * 400.0;

@@ -173,21 +173,7 @@ pub fn check_queries<T: SpatialQuery>(
         assert_eq!(got, want, "box overlap");
 
         let f = random_frustum(rng, extent);
-        let mut got = Vec::new();
-        tree.for_each_in_frustum(&f, |i, c| {
-            let exact = f.classify_aabb(&model[&i]);
-            if c == Containment::Inside {
-                assert_eq!(
-                    exact,
-                    Containment::Inside,
-                    "subtree accepted but primitive not inside"
-                );
-            }
-            if exact != Containment::Outside {
-                got.push(i);
-            }
-        });
-        got.sort_unstable();
+        let got = frustum_hits(tree, &f, |i| model[&i]);
         let mut want: Vec<u32> = boxes
             .iter()
             .filter(|(_, b)| f.intersects_aabb(b))
@@ -227,4 +213,29 @@ pub fn check_ids(
         assert_eq!(handles[&id], h, "id {id} has another handle");
     }
     assert_eq!(count, model.len(), "an id was lost");
+}
+
+/// What a frustum query reports once each candidate gets the exact test (sorted), asserting
+/// on the way that a subtree accepted as inside never holds a primitive that is not.
+pub fn frustum_hits<T: SpatialQuery>(
+    tree: &T,
+    f: &Frustum,
+    bounds: impl Fn(u32) -> Aabb,
+) -> Vec<u32> {
+    let mut got = Vec::new();
+    tree.for_each_in_frustum(f, |i, c| {
+        let exact = f.classify_aabb(&bounds(i));
+        if c == Containment::Inside {
+            assert_eq!(
+                exact,
+                Containment::Inside,
+                "subtree accepted but primitive not inside"
+            );
+        }
+        if exact != Containment::Outside {
+            got.push(i);
+        }
+    });
+    got.sort_unstable();
+    got
 }
