@@ -190,6 +190,7 @@ fn check_camera_paths(variant: Variant) {
     }
     let mut rng_path = Rng(5);
     let (mut flat_views, mut tree_views, mut accepted_whole, mut reused_walks) = (0, 0, 0, 0);
+    let mut flat_views_on_trees = 0;
     let mut step: Vec<(Vec3, Vec3, f32)> = cams.clone();
     let paused = match &variant {
         Variant::Paused(frames) => frames.clone(),
@@ -275,6 +276,7 @@ fn check_camera_paths(variant: Variant) {
         );
         let stats = accel_app.world().resource::<CullingStats>();
         flat_views += stats.flat_views;
+        flat_views_on_trees += stats.flat_views_on_trees;
         tree_views += stats.views - stats.flat_views;
         accepted_whole += stats.accepted_by_subtree;
         reused_walks += stats.reused_walks;
@@ -285,6 +287,11 @@ fn check_camera_paths(variant: Variant) {
     assert!(
         flat_views > 0 && tree_views >= 25 - paused.len(),
         "flat {flat_views}, tree {tree_views}"
+    );
+    // The flat views took the trees' word where they could (they were current).
+    assert!(
+        flat_views_on_trees > 0,
+        "flat {flat_views}, on trees {flat_views_on_trees}"
     );
     let stats = accel_app.world().resource::<CullingStats>();
     assert!(stats.views == 3 && stats.visible > 0);

@@ -7,6 +7,7 @@
 //! on entities whose leaf straddles a plane, so its results are Bevy's.
 
 mod class_lists;
+mod flat_pass;
 #[cfg(feature = "light_culling")]
 mod light_views;
 #[cfg(feature = "light_culling")]

@@ -1,17 +1,15 @@
 //! The culling system: trees for the entities they hold, Bevy's tests for the rest.
 
 use super::class_lists::ClassLists;
+use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
 use super::slot_order::FoundSlots;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
 use super::untracked::UntrackedEntities;
-use super::view_walk::ViewWalk;
+use super::view_walk::{ViewWalk, WalkForm};
 use crate::trees::AccelTrees;
 use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
-use bevy::camera::visibility::{
-    NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
-    VisibilityRange, VisibleEntities, VisibleEntityRanges,
-};
+use bevy::camera::visibility::{NoCpuCulling, RenderLayers, VisibleEntities, VisibleEntityRanges};
 use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
 use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
@@ -35,6 +33,10 @@ pub struct CullingStats {
     /// Views culled with the flat parallel pass instead of the trees (most of the world was
     /// in view last frame).
     pub flat_views: usize,
+    /// Of the flat views, those whose frustum tests the trees settled wherever they could
+    /// (the trees were current): only entities crossing a plane, or outside the trees, got
+    /// Bevy's test.
+    pub flat_views_on_trees: usize,
     /// Views whose tree walk was reused from the last frame, because neither their frustum
     /// nor the trees had changed (the entities found are still decided one by one).
     pub reused_walks: usize,
@@ -97,19 +99,6 @@ type ViewItem = (
     Has<NoCpuCulling>,
 );
 
-type CandidateItem = (
-    Entity,
-    &'static InheritedVisibility,
-    &'static mut ViewVisibility,
-    Option<&'static VisibilityClass>,
-    Option<&'static RenderLayers>,
-    Option<&'static Aabb>,
-    Option<&'static Sphere>,
-    &'static GlobalTransform,
-    Has<NoFrustumCulling>,
-    Has<VisibilityRange>,
-);
-
 /// Every cullable entity: the flat pass's full query, and the tree path's narrow one (they
 /// share `ViewVisibility` mutably, so one at a time). The inner lifetimes are `'static`, as
 /// `ParamSet` hands out its members with its own.
@@ -158,7 +147,7 @@ pub(crate) fn cull_views_with_trees(
     mut candidates: CandidateQueries,
     untracked: UntrackedEntities,
     mut stats: ResMut<CullingStats>,
-    mut thread_queues: Local<Parallel<(ClassLists, usize)>>,
+    mut tallies: Local<Parallel<FlatTally>>,
     mut visible_fraction: Local<EntityHashMap<f32>>,
     mut found: Local<FoundSlots>,
     mut walks: Local<EntityHashMap<ViewWalk>>,
@@ -189,9 +178,35 @@ pub(crate) fn cull_views_with_trees(
                 .is_some_and(|f| *f > FLAT_PASS_ABOVE)
         {
             s.flat_views += 1;
-            let visible = flat_pass(
+            // Fresh trees settle most entities' frustum tests (see `TreeVerdicts`).
+            let verdicts = (untracked.trees_current() && !no_cpu_culling_view).then(|| {
+                let planes = tree_planes(frustum);
+                let walk = walks.entry(view).or_default();
+                if walk.walked(&planes, WalkForm::Bits) {
+                    s.reused_walks += 1;
+                } else {
+                    walk.restart(planes, WalkForm::Bits);
+                    trees.query().for_each_in_frustum(
+                        &AccelFrustum::from_planes(planes),
+                        |slot, containment| {
+                            if let Some(entity) = trees.entity(slot) {
+                                match containment {
+                                    Containment::Inside => walk.inside_bits.insert(entity),
+                                    _ => walk.crossing_bits.insert(entity),
+                                }
+                            }
+                        },
+                    );
+                }
+                s.flat_views_on_trees += 1;
+                TreeVerdicts {
+                    walk,
+                    trees: &trees,
+                }
+            });
+            let (visible, tested, accepted) = flat_pass(
                 &mut candidates.p0(),
-                &mut thread_queues,
+                &mut tallies,
                 &mut visible_entities,
                 ViewFilter {
                     view: Some(view),
@@ -200,10 +215,12 @@ pub(crate) fn cull_views_with_trees(
                 },
                 frustum,
                 no_cpu_culling_view,
+                verdicts,
             );
             let population = candidates.p0().iter().len();
             s.visible += visible;
-            s.tested += population;
+            s.tested += tested;
+            s.accepted_by_subtree += accepted;
             visible_fraction.insert(view, visible as f32 / population.max(1) as f32);
             continue;
         }
@@ -236,12 +253,12 @@ pub(crate) fn cull_views_with_trees(
         } else {
             let planes = tree_planes(frustum);
             let walk = walks.entry(view).or_default();
-            if walk.walked(&planes) {
+            if walk.walked(&planes, WalkForm::Lists) {
                 pass.stats.reused_walks += 1;
             } else {
                 // The tree finds entities in spatial order, which is random in the ECS
                 // tables; they are decided in slot order instead (see `FoundSlots`).
-                walk.restart(planes);
+                walk.restart(planes, WalkForm::Lists);
                 found.clear();
                 trees.query().for_each_in_frustum(
                     &AccelFrustum::from_planes(planes),
@@ -273,15 +290,23 @@ pub(crate) fn cull_views_with_trees(
         // the trees cost the same either way (`NoFrustumCulling` ones are always visible).
         visible_fraction.insert(view, (s.visible - visible_before) as f32 / tracked);
         let mut all = candidates.p0();
+        let mut tally = FlatTally::default();
         for entity in untracked.iter() {
             let Ok(item) = all.get_mut(entity) else {
                 continue;
             };
-            s.tested += 1;
-            if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, &mut class_lists) {
-                s.visible += 1;
-            }
+            decide_like_bevy(
+                item,
+                filter,
+                frustum,
+                no_cpu_culling_view,
+                |_| None,
+                &mut tally,
+            );
         }
+        let (visible, tested, _) = tally.flush_into(&mut visible_entities);
+        s.visible += visible;
+        s.tested += tested;
         class_lists.flush_into(&mut visible_entities);
         // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
         // already; the sort finds the runs in linear time).
@@ -325,78 +350,6 @@ impl ViewFilter<'_> {
                         .is_none_or(|view| !r.entity_is_in_range_of_view(entity, view))
                 }))
     }
-}
-
-/// Bevy's own loop, for views that see most of the world: every entity once, in parallel,
-/// with Bevy's tests. Returns how many entities it made visible.
-///
-/// Each thread counts and gathers into its own state: a shared atomic counter would bounce its
-/// cache line between cores on every visible entity, and a hash-map entry per entity and
-/// class costs more than a search of the world's few classes. (An A/B run at 100k, 100%
-/// visible, measured the loop's own time unchanged within this machine's noise.)
-fn flat_pass(
-    candidates: &mut Query<CandidateItem, Without<NoCpuCulling>>,
-    thread_queues: &mut Parallel<(ClassLists, usize)>,
-    visible_entities: &mut VisibleEntities,
-    filter: ViewFilter<'_>,
-    frustum: &Frustum,
-    no_cpu_culling_view: bool,
-) -> usize {
-    candidates.par_iter_mut().for_each_init(
-        || thread_queues.borrow_local_mut(),
-        |queue, item| {
-            let (lists, visible) = &mut **queue;
-            if decide_like_bevy(item, filter, frustum, no_cpu_culling_view, lists) {
-                *visible += 1;
-            }
-        },
-    );
-    let mut visible = 0;
-    for (lists, count) in thread_queues.iter_mut() {
-        lists.flush_into(visible_entities);
-        visible += core::mem::take(count);
-    }
-    for list in visible_entities.entities.values_mut() {
-        list.sort_unstable();
-    }
-    visible
-}
-
-/// Decides one entity exactly as Bevy's `check_visibility_cpu_culling` does: its rules, then
-/// its frustum test unless the entity or the view opted out. Returns whether it is visible.
-#[inline]
-fn decide_like_bevy(
-    (
-        entity,
-        inherited,
-        mut view_visibility,
-        class,
-        layers,
-        aabb,
-        sphere,
-        transform,
-        no_frustum_culling,
-        has_range,
-    ): <CandidateItem as bevy::ecs::query::QueryData>::Item<'_, '_>,
-    filter: ViewFilter<'_>,
-    frustum: &Frustum,
-    no_cpu_culling_view: bool,
-    lists: &mut ClassLists,
-) -> bool {
-    if !filter.admits(entity, inherited, layers, has_range) {
-        return false;
-    }
-    if !no_frustum_culling
-        && !no_cpu_culling_view
-        && !bevy_frustum_test(frustum, aabb, sphere, transform)
-    {
-        return false;
-    }
-    view_visibility.set_visible();
-    if let Some(class) = class {
-        lists.push(class, entity);
-    }
-    true
 }
 
 /// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane

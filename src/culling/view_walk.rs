@@ -15,27 +15,48 @@ use bevy::prelude::Entity;
 pub(crate) struct ViewWalk {
     /// The planes walked, compared bit for bit.
     planes: Option<[Vec4; 6]>,
-    /// Entities a tree proved inside, in slot order.
+    /// The form the finds were kept in.
+    form: WalkForm,
+    /// Entities a tree proved inside, in slot order ([`WalkForm::Lists`]).
     pub(crate) inside: Vec<Entity>,
-    /// Entities whose leaf crosses a plane, in slot order.
+    /// Entities whose leaf crosses a plane, in slot order ([`WalkForm::Lists`]).
     pub(crate) crossing: Vec<Entity>,
+    /// Entities a tree proved inside ([`WalkForm::Bits`]).
+    pub(crate) inside_bits: EntityBits,
+    /// Entities whose leaf crosses a plane ([`WalkForm::Bits`]).
+    pub(crate) crossing_bits: EntityBits,
+}
+
+/// How a walk's finds are kept: as lists for the tree path, which decides exactly those
+/// entities, or as sets for the flat pass, which meets every entity in table order and asks
+/// of each whether a tree already settled its frustum test.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) enum WalkForm {
+    #[default]
+    Lists,
+    Bits,
 }
 
 impl ViewWalk {
-    /// Whether this walk was of exactly these planes (and has not been forgotten).
-    pub(crate) fn walked(&self, planes: &[Vec4; 6]) -> bool {
-        self.planes.is_some_and(|p| {
-            p.iter()
-                .zip(planes)
-                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
-        })
+    /// Whether this walk was of exactly these planes, kept in this form (and has not been
+    /// forgotten).
+    pub(crate) fn walked(&self, planes: &[Vec4; 6], form: WalkForm) -> bool {
+        self.form == form
+            && self.planes.is_some_and(|p| {
+                p.iter()
+                    .zip(planes)
+                    .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+            })
     }
 
-    /// Starts a new walk of `planes`: forgets what the last one found.
-    pub(crate) fn restart(&mut self, planes: [Vec4; 6]) {
+    /// Starts a new walk of `planes`, kept in `form`: forgets what the last one found.
+    pub(crate) fn restart(&mut self, planes: [Vec4; 6], form: WalkForm) {
         self.planes = Some(planes);
+        self.form = form;
         self.inside.clear();
         self.crossing.clear();
+        self.inside_bits.clear();
+        self.crossing_bits.clear();
     }
 
     /// Forgets the walk (the trees changed).
@@ -44,26 +65,75 @@ impl ViewWalk {
     }
 }
 
+/// A set of entities, one bit per entity index. Within a frame an index names one live
+/// entity, and a walk is kept only while the trees (and so their entities) do not change.
+#[derive(Default)]
+pub(crate) struct EntityBits(Vec<u64>);
+
+impl EntityBits {
+    /// Empties the set, keeping its memory.
+    pub(crate) fn clear(&mut self) {
+        self.0.fill(0);
+    }
+
+    /// Adds `entity`.
+    #[inline]
+    pub(crate) fn insert(&mut self, entity: Entity) {
+        let i = entity.index_u32() as usize;
+        if self.0.len() <= i / 64 {
+            self.0.resize(i / 64 + 1, 0);
+        }
+        self.0[i / 64] |= 1 << (i % 64);
+    }
+
+    /// Whether `entity` (by its index) is in the set.
+    #[inline]
+    pub(crate) fn contains(&self, entity: Entity) -> bool {
+        let i = entity.index_u32() as usize;
+        self.0.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 != 0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::ViewWalk;
+    use super::{EntityBits, ViewWalk, WalkForm};
     use bevy::math::Vec4;
+    use bevy::prelude::Entity;
 
     #[test]
-    fn matches_only_the_same_planes_until_forgotten() {
+    fn matches_only_the_same_planes_and_form_until_forgotten() {
         let planes = [Vec4::new(1.0, 0.0, 0.0, 2.0); 6];
         let mut walk = ViewWalk::default();
-        assert!(!walk.walked(&planes));
-        walk.restart(planes);
-        assert!(walk.walked(&planes));
+        assert!(!walk.walked(&planes, WalkForm::Lists));
+        walk.restart(planes, WalkForm::Lists);
+        assert!(walk.walked(&planes, WalkForm::Lists));
+        assert!(!walk.walked(&planes, WalkForm::Bits));
         let mut moved = planes;
         moved[3].w = f32::from_bits(2.0f32.to_bits() + 1);
-        assert!(!walk.walked(&moved));
+        assert!(!walk.walked(&moved, WalkForm::Lists));
         // -0.0 == 0.0, but a frustum built from other numbers is another walk.
         let mut signed = planes;
         signed[0].y = -0.0;
-        assert!(!walk.walked(&signed));
+        assert!(!walk.walked(&signed, WalkForm::Lists));
         walk.forget();
-        assert!(!walk.walked(&planes));
+        assert!(!walk.walked(&planes, WalkForm::Lists));
+    }
+
+    #[test]
+    fn entity_bits_hold_exactly_what_was_inserted_until_cleared() {
+        let mut bits = EntityBits::default();
+        let ids = [0u32, 1, 63, 64, 65, 1000, 123_456];
+        for &i in &ids {
+            bits.insert(Entity::from_raw_u32(i).unwrap());
+        }
+        for i in 0..130_000u32 {
+            let e = Entity::from_raw_u32(i).unwrap();
+            assert_eq!(bits.contains(e), ids.contains(&i), "index {i}");
+        }
+        bits.clear();
+        assert!(
+            ids.iter()
+                .all(|&i| !bits.contains(Entity::from_raw_u32(i).unwrap()))
+        );
     }
 }

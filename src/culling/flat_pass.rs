@@ -1,0 +1,165 @@
+//! The flat pass: every cullable entity once, in table order and in parallel, as Bevy's own
+//! `check_visibility_cpu_culling` goes, for views that see most of the world.
+
+use super::class_lists::ClassLists;
+use super::system::{ViewFilter, bevy_frustum_test};
+use super::view_walk::ViewWalk;
+use crate::trees::AccelTrees;
+use bevy::camera::primitives::{Aabb, Frustum, Sphere};
+use bevy::camera::visibility::{
+    NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
+    VisibilityRange, VisibleEntities,
+};
+use bevy::prelude::*;
+use bevy::utils::Parallel;
+
+/// What the flat pass reads and writes of each entity: Bevy's own query.
+pub(crate) type CandidateItem = (
+    Entity,
+    &'static InheritedVisibility,
+    &'static mut ViewVisibility,
+    Option<&'static VisibilityClass>,
+    Option<&'static RenderLayers>,
+    Option<&'static Aabb>,
+    Option<&'static Sphere>,
+    &'static GlobalTransform,
+    Has<NoFrustumCulling>,
+    Has<VisibilityRange>,
+);
+
+/// One thread's share of a flat pass. Each thread counts and gathers into its own: a shared
+/// atomic counter would bounce its cache line between cores on every visible entity, and a
+/// hash-map entry per entity and class (Bevy's way) costs more than a search of the world's
+/// few classes.
+#[derive(Default)]
+pub(crate) struct FlatTally {
+    lists: ClassLists,
+    /// Entities made visible.
+    visible: usize,
+    /// Entities given Bevy's frustum test.
+    tested: usize,
+    /// Entities made visible on a tree's word, with no frustum test.
+    accepted: usize,
+}
+
+impl FlatTally {
+    /// Moves the gathered entities into the view's lists (unsorted) and hands back the
+    /// counts as `(visible, tested, accepted)`, leaving the tally empty for the next view.
+    pub(crate) fn flush_into(
+        &mut self,
+        visible_entities: &mut VisibleEntities,
+    ) -> (usize, usize, usize) {
+        self.lists.flush_into(visible_entities);
+        (
+            core::mem::take(&mut self.visible),
+            core::mem::take(&mut self.tested),
+            core::mem::take(&mut self.accepted),
+        )
+    }
+}
+
+/// The trees' answers for a flat pass: a walk of the view's frustum kept as sets
+/// ([`super::view_walk::WalkForm::Bits`]), and which entities the trees hold.
+///
+/// Why: Bevy's frustum test (a bounding sphere, then the oriented box, from the entity's
+/// transform) is most of what its loop spends per entity. Skipping it measured our flat pass
+/// at 1M entities, 100% in view, at 38-40 ms against 61-85 ms with it (Bevy's own system:
+/// 65-92 ms in the same runs). The walk settles it for every entity it proves inside or
+/// never reaches, by the same rules the tree path decides by, so the results are Bevy's; the
+/// entities it cannot settle (leaves crossing a plane, entities outside the trees) get
+/// Bevy's test.
+#[derive(Clone, Copy)]
+pub(crate) struct TreeVerdicts<'a> {
+    pub(crate) walk: &'a ViewWalk,
+    pub(crate) trees: &'a AccelTrees,
+}
+
+impl TreeVerdicts<'_> {
+    /// Whether `entity` passes the view's frustum test, if the trees know: yes inside a
+    /// subtree fully in view, no if tracked and in no leaf the walk reached.
+    #[inline]
+    fn frustum_test(&self, entity: Entity) -> Option<bool> {
+        if self.walk.inside_bits.contains(entity) {
+            Some(true)
+        } else if self.walk.crossing_bits.contains(entity) || !self.trees.contains(entity) {
+            None
+        } else {
+            Some(false)
+        }
+    }
+}
+
+/// Runs the flat pass for one view: Bevy's rules for every entity, its frustum test where
+/// `verdicts` (when given) cannot settle it. Returns the summed tallies' counts as
+/// `(visible, tested, accepted)`.
+pub(crate) fn flat_pass(
+    candidates: &mut Query<CandidateItem, Without<NoCpuCulling>>,
+    tallies: &mut Parallel<FlatTally>,
+    visible_entities: &mut VisibleEntities,
+    filter: ViewFilter<'_>,
+    frustum: &Frustum,
+    no_cpu_culling_view: bool,
+    verdicts: Option<TreeVerdicts<'_>>,
+) -> (usize, usize, usize) {
+    candidates.par_iter_mut().for_each_init(
+        || tallies.borrow_local_mut(),
+        |tally, item| {
+            let known = |entity| verdicts.and_then(|v| v.frustum_test(entity));
+            decide_like_bevy(item, filter, frustum, no_cpu_culling_view, known, tally);
+        },
+    );
+    let (mut visible, mut tested, mut accepted) = (0, 0, 0);
+    for tally in tallies.iter_mut() {
+        let (v, t, a) = tally.flush_into(visible_entities);
+        (visible, tested, accepted) = (visible + v, tested + t, accepted + a);
+    }
+    for list in visible_entities.entities.values_mut() {
+        list.sort_unstable();
+    }
+    (visible, tested, accepted)
+}
+
+/// Decides one entity as Bevy's `check_visibility_cpu_culling` does: its rules, then its
+/// frustum test unless the entity or the view opted out. The test's outcome is taken from
+/// `known` when it has one. Counts into `tally`, and gathers into its lists.
+#[inline]
+pub(crate) fn decide_like_bevy(
+    (
+        entity,
+        inherited,
+        mut view_visibility,
+        class,
+        layers,
+        aabb,
+        sphere,
+        transform,
+        no_frustum_culling,
+        has_range,
+    ): <CandidateItem as bevy::ecs::query::QueryData>::Item<'_, '_>,
+    filter: ViewFilter<'_>,
+    frustum: &Frustum,
+    no_cpu_culling_view: bool,
+    known: impl FnOnce(Entity) -> Option<bool>,
+    tally: &mut FlatTally,
+) {
+    if !filter.admits(entity, inherited, layers, has_range) {
+        return;
+    }
+    if !no_frustum_culling && !no_cpu_culling_view {
+        match known(entity) {
+            Some(false) => return,
+            Some(true) => tally.accepted += 1,
+            None => {
+                tally.tested += 1;
+                if !bevy_frustum_test(frustum, aabb, sphere, transform) {
+                    return;
+                }
+            }
+        }
+    }
+    view_visibility.set_visible();
+    tally.visible += 1;
+    if let Some(class) = class {
+        tally.lists.push(class, entity);
+    }
+}
