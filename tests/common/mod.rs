@@ -1,11 +1,16 @@
 //! What the plugin's tests and benches share. Each uses part of it.
 #![allow(dead_code)]
 
-use bevy::camera::visibility::{VisibilityPlugin, VisibilitySystems, VisibleEntities};
+use bevy::camera::visibility::VisibilityPlugin;
+#[cfg(feature = "light_culling")]
+use bevy::camera::visibility::{VisibilitySystems, VisibleEntities};
+#[cfg(feature = "light_culling")]
 use bevy::light::cluster::ClusterVisibilityClass;
+#[cfg(feature = "light_culling")]
 use bevy::light::{LightPlugin, SimulationLightSystems};
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
+#[cfg(feature = "light_culling")]
 use std::any::TypeId;
 
 /// A headless app with the trees and what Bevy's visibility needs: no window, no renderer.
@@ -27,10 +32,12 @@ pub fn headless_app() -> App {
 }
 
 /// The lights clustering assigns to views.
+#[cfg(feature = "light_culling")]
 type ClusteredLight = Or<(With<PointLight>, With<SpotLight>)>;
 
 /// Stands in for light clustering (which needs the renderer's settings): every point and spot
 /// light is listed in every camera's view, as a light near the cameras would be.
+#[cfg(feature = "light_culling")]
 fn list_lights_in_views(
     mut views: Query<&mut VisibleEntities, With<Camera>>,
     lights: Query<Entity, ClusteredLight>,
@@ -46,6 +53,7 @@ fn list_lights_in_views(
 /// Adds bevy_light's `LightPlugin` to a [`headless_app`], with what it needs there: image
 /// assets (atmosphere textures) and gizmos (light gizmos), which the default plugins would
 /// bring, and a stand-in for light clustering.
+#[cfg(feature = "light_culling")]
 pub fn add_lights(app: &mut App) {
     app.init_asset::<Image>()
         .add_plugins((bevy::gizmos::GizmoPlugin, LightPlugin))
@@ -69,6 +77,7 @@ pub fn grid_point(i: usize, side: usize) -> Vec3 {
 }
 
 /// [`headless_app`] with the picking backend, finished.
+#[cfg(feature = "picking")]
 pub fn app() -> App {
     let mut app = headless_app();
     app.add_plugins(AccelPickingPlugin);
