@@ -120,12 +120,13 @@ fn bench(c: &mut Criterion) {
             let stats = accel_app.world().resource::<CullingStats>();
             let visible = stats.visible;
             println!(
-                "n = {n}, fraction {fraction}: {visible} visible ({:.1}%); tree path: {} \
-                 accepted whole, {} tested one by one; flat pass: {}",
+                "n = {n}, fraction {fraction}: {visible} visible ({:.1}%); {} accepted on a \
+                 tree's word, {} given Bevy's frustum test; flat pass: {} (on the trees: {})",
                 100.0 * visible as f64 / n as f64,
                 stats.accepted_by_subtree,
                 stats.tested,
-                stats.flat_views > 0
+                stats.flat_views > 0,
+                stats.flat_views_on_trees > 0
             );
             let label = format!("{n}/{}pct", (fraction * 100.0) as u32);
             g.bench_function(BenchmarkId::new("bevy", &label), |b| {

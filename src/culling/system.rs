@@ -26,9 +26,11 @@ pub struct CullingStats {
     pub views: usize,
     /// Entities reported visible (per view, summed).
     pub visible: usize,
-    /// Entities accepted whole, inside a subtree fully in view, with no per-entity test.
+    /// Entities accepted whole, inside a subtree fully in view, with no per-entity test (on
+    /// the tree path, and on the flat pass when the trees settled their tests).
     pub accepted_by_subtree: usize,
-    /// Entities tested one by one (leaves crossing a plane, and entities not in the trees).
+    /// Entities given Bevy's frustum test one by one (leaves crossing a plane, and entities
+    /// not in the trees; on a flat pass without the trees' word, every entity admitted).
     pub tested: usize,
     /// Views culled with the flat parallel pass instead of the trees (most of the world was
     /// in view last frame).
