@@ -142,18 +142,19 @@ pub(crate) fn decide_like_bevy(
     known: impl FnOnce(Entity) -> Option<bool>,
     tally: &mut FlatTally,
 ) {
-    if !filter.admits(entity, inherited, layers, has_range) {
+    // The trees' word first: an entity they put outside is hidden whatever Bevy's rules say,
+    // and asking them reads one bit where the rules read the entity's rows.
+    let known = (!no_frustum_culling && !no_cpu_culling_view).then(|| known(entity));
+    if known == Some(Some(false)) || !filter.admits(entity, inherited, layers, has_range) {
         return;
     }
-    if !no_frustum_culling && !no_cpu_culling_view {
-        match known(entity) {
-            Some(false) => return,
-            Some(true) => tally.accepted += 1,
-            None => {
-                tally.tested += 1;
-                if !bevy_frustum_test(frustum, aabb, sphere, transform) {
-                    return;
-                }
+    match known {
+        None | Some(Some(false)) => {}
+        Some(Some(true)) => tally.accepted += 1,
+        Some(None) => {
+            tally.tested += 1;
+            if !bevy_frustum_test(frustum, aabb, sphere, transform) {
+                return;
             }
         }
     }
