@@ -4,7 +4,10 @@
 //! its cost follows the size of the world (bevy issue 17133). [`AccelCullingPlugin`] replaces
 //! it: per view it walks the trees, skips every subtree outside the frustum, accepts every
 //! subtree fully inside without testing its entities, and runs Bevy's own per-entity tests only
-//! on entities whose leaf straddles a plane, so its results are Bevy's.
+//! on entities whose leaf straddles a plane, so its results are Bevy's. A view that sees most
+//! of the world goes through every entity in table order instead, as Bevy's loop does (a
+//! lookup per tree hit would cost more there), still taking the trees' word wherever a leaf is
+//! wholly in or out of view.
 
 mod class_lists;
 mod flat_pass;
