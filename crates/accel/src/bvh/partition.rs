@@ -1,49 +1,18 @@
-//! Partitions of a build's primitives around a split: Hoare's for the object splits, and the
-//! block partition of the binned split, which also returns each side's centroid bounds.
+//! Partitioning a build's primitives around a split plane, returning each side's centroid
+//! bounds on the way: a block partition, with Hoare's scheme for the tail.
 
 use super::build::BuildPrim;
 use crate::Aabb;
 use glam::Vec3A;
 
-/// Partitions in place so that the primitives for which `left` holds come first; returns how
-/// many did.
-///
-/// Hoare's scheme: both ends scan inwards and only misplaced pairs are swapped, each
-/// primitive tested once (the first version swapped every right-side primitive met from the
-/// left end, whether or not the one it swapped with belonged on the right too). On this
-/// machine the difference in build time is inside the run-to-run noise (about 20%).
-pub(super) fn partition(
-    prims: &mut [BuildPrim],
-    mut left: impl FnMut(&BuildPrim) -> bool,
-) -> usize {
-    let mut i = 0;
-    let mut j = prims.len();
-    loop {
-        while i < j && left(&prims[i]) {
-            i += 1;
-        }
-        while i < j && !left(&prims[j - 1]) {
-            j -= 1;
-        }
-        if i + 1 >= j {
-            // `i == j`: done. `i + 1 == j`: the one primitive between the scans failed the
-            // first test and passed the second; predicates are pure, so this cannot happen,
-            // but the bound keeps a misbehaving one from swapping out of range.
-            return i;
-        }
-        prims.swap(i, j - 1);
-        i += 1;
-        j -= 1;
-    }
-}
-
 /// Elements classified at a time by each end of [`partition_by_centroid`] (offsets fit a
 /// byte).
 const PARTITION_BLOCK: usize = 64;
 
-/// [`partition`] by a test on a point of each primitive (`point`: its centroid, or a
-/// multiple), returning with the split the bounds of the points on each side: a partition
-/// reads every primitive anyway, so the children's centroid bounds cost no pass of their own.
+/// Partitions in place so that the primitives whose point (`point`: the centroid, or a
+/// multiple) passes `left` come first; returns how many did, and the bounds of the points on
+/// each side: a partition reads every primitive anyway, so the children's centroid bounds
+/// cost no pass of their own.
 ///
 /// Block partitioning (Edelkamp & Weiss 2016, "BlockQuicksort"): each end classifies a block
 /// of elements without branching, recording the offsets of the misplaced ones, then the two
@@ -152,7 +121,8 @@ impl SideBounds {
 }
 
 /// Hoare's partition with the bounds of each side's points: the tail of
-/// [`partition_by_centroid`].
+/// [`partition_by_centroid`]. Both ends scan inwards and only misplaced pairs are swapped,
+/// each primitive tested once.
 fn partition_scalar(
     prims: &mut [BuildPrim],
     point: impl Fn(&BuildPrim) -> Vec3A,
