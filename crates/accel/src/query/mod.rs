@@ -12,6 +12,7 @@ pub mod binary;
 pub mod ray_walk;
 mod stack;
 mod tree;
+pub mod views;
 
 pub use ray_walk::RayWalk;
 pub(crate) use stack::TraversalStack;

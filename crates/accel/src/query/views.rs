@@ -1,0 +1,131 @@
+//! One walk for several views at once: which views hold each primitive wholly, which only
+//! cross it, and which never reach it.
+//!
+//! A point light's shadow has six cube faces, a directional light four cascades per camera.
+//! Walking the tree once per view repeats the descent through the top of the tree, where
+//! every view's answer is "crossing", once for each view. Here each node is classified only
+//! against the views still undecided above it (a plane mask per view, as in Assarsson and
+//! Möller's coherent frustum culling, 2000), and a subtree leaves the walk as soon as every
+//! view has decided it.
+
+use super::binary::{SubtreeExt, for_each_leaf_primitive};
+use super::{BoundingTree, TraversalStack};
+use crate::Aabb;
+use core::ops::ControlFlow;
+
+/// Which views, one bit each, a primitive's tree box lies wholly inside (`inside`: no test
+/// needed), and which only cross its leaf (`crossing`: the caller tests it). A view in
+/// neither never reached it: the primitive's box is outside that view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ViewMasks {
+    /// Views holding the whole primitive box.
+    pub inside: u32,
+    /// Views whose boundary crosses the primitive's leaf.
+    pub crossing: u32,
+}
+
+/// How a box stands with the views asked about: `inside` holds the views containing it
+/// wholly, `outside` those it lies wholly outside of. Views in neither are undecided.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ViewClassification {
+    /// Views that hold the whole box.
+    pub inside: u32,
+    /// Views the box lies wholly outside of.
+    pub outside: u32,
+}
+
+/// Visits each primitive that at least one of the views in `views` (a bit mask, up to 32
+/// views) reaches, once, with the views that hold it and those that cross it.
+///
+/// `classify(bounds, undecided)` says how a node's box stands with the views of `undecided`;
+/// answers for other views are ignored. It must be monotone, as box-against-volume tests
+/// are: a box inside (outside) a view makes every box within it inside (outside) too. Then
+/// a primitive's `inside` views hold its tree box, and the views missing from its masks lie
+/// wholly outside its tree box.
+///
+/// ```
+/// use accel::query::views::{ViewClassification, for_each_in_views};
+/// use accel::{Aabb, BuildConfig, Bvh};
+/// use glam::Vec3A;
+/// let boxes: Vec<Aabb> = (0..10)
+///     .map(|i| Aabb::new(Vec3A::new(i as f32, 0.0, 0.0), Vec3A::new(i as f32 + 0.5, 1.0, 1.0)))
+///     .collect();
+/// let bvh = Bvh::build(&boxes, &BuildConfig::default());
+/// // View 0 is x < 5, view 1 is x > 5: classify a box against each undecided view.
+/// let classify = |b: &Aabb, undecided: u32| {
+///     let mut c = ViewClassification::default();
+///     if undecided & 1 != 0 {
+///         if b.max.x < 5.0 { c.inside |= 1 } else if b.min.x >= 5.0 { c.outside |= 1 }
+///     }
+///     if undecided & 2 != 0 {
+///         if b.min.x > 5.0 { c.inside |= 2 } else if b.max.x <= 5.0 { c.outside |= 2 }
+///     }
+///     c
+/// };
+/// let mut seen = Vec::new();
+/// for_each_in_views(&bvh, 0b11, classify, |id, masks| seen.push((id, masks.inside | masks.crossing)));
+/// seen.sort();
+/// // Every box is reached by exactly one of the two views (or crossed by both near x = 5).
+/// assert_eq!(seen.len(), 10);
+/// assert!(seen.iter().all(|&(id, views)| views == if id < 5 { 1 } else { 2 } || views == 3));
+/// ```
+pub fn for_each_in_views<T, C, F>(tree: &T, views: u32, mut classify: C, mut visit: F)
+where
+    T: BoundingTree + ?Sized,
+    C: FnMut(&Aabb, u32) -> ViewClassification,
+    F: FnMut(u32, ViewMasks),
+{
+    let Some(root) = tree.root() else { return };
+    if views == 0 {
+        return;
+    }
+    // Each entry carries the views that already hold its whole box, and those still to ask.
+    let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
+    stack.push((root, 0, views));
+    while let Some((node, inside, undecided)) = stack.pop() {
+        let c = classify(&tree.node_bounds(node), undecided);
+        let newly_inside = c.inside & undecided;
+        let inside = inside | newly_inside;
+        let undecided = undecided & !(newly_inside | c.outside);
+        if inside == 0 && undecided == 0 {
+            continue;
+        }
+        if undecided == 0 {
+            // Every view has decided the subtree: emit it whole without another test.
+            let masks = ViewMasks {
+                inside,
+                crossing: 0,
+            };
+            if let Some(prims) = tree.subtree_primitives(node) {
+                prims.iter().for_each(|&p| visit(p, masks));
+                continue;
+            }
+            for_each_leaf_primitive(
+                &tree.subtree(node),
+                |_| true,
+                |p| {
+                    visit(p, masks);
+                    ControlFlow::Continue(())
+                },
+            );
+            continue;
+        }
+        match tree.node_children(node) {
+            Some([a, b]) => {
+                tree.prefetch_node(b);
+                tree.prefetch_node(a);
+                stack.push((b, inside, undecided));
+                stack.push((a, inside, undecided));
+            }
+            None => {
+                let masks = ViewMasks {
+                    inside,
+                    crossing: undecided,
+                };
+                for &p in tree.leaf_primitives(node) {
+                    visit(p, masks);
+                }
+            }
+        }
+    }
+}
