@@ -129,6 +129,9 @@ fn lights_and_cameras(app: &mut App) {
     world.spawn((point(40.0), Transform::from_xyz(10.0, 5.0, -20.0), Tag(10)));
     // Reaches the whole scene: its walk finds most casters, and the flat pass decides it.
     world.spawn((point(500.0), Transform::from_xyz(0.0, 30.0, 0.0), Tag(12)));
+    // Reaches about half the scene: flat too, with the light's range crossing many casters,
+    // whose range test the trees cannot settle.
+    world.spawn((point(130.0), Transform::from_xyz(-10.0, 0.0, 5.0), Tag(13)));
     world.spawn((
         point(25.0),
         Transform::from_xyz(-50.0, 0.0, 30.0),
@@ -216,7 +219,7 @@ fn light_views_equal_bevys_over_moving_lights() {
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
     let mut rng = Rng(21);
-    let (mut seen, mut reused, mut flat) = (0, 0, 0);
+    let (mut seen, mut reused, mut flat, mut flat_on_trees) = (0, 0, 0, 0);
     for frame in 0..16 {
         // Frames 12 and 13: the plugin is switched off and its trees go stale; every light
         // view must then take the flat pass.
@@ -253,7 +256,7 @@ fn light_views_equal_bevys_over_moving_lights() {
                     let mut q = world.query::<(&Tag, &mut Transform)>();
                     for (tag, mut t) in q.iter_mut(world) {
                         match tag.0 {
-                            10..=12 | 20 => t.translation += light_step,
+                            10..=13 | 20 => t.translation += light_step,
                             30 => t.rotate_y(turn),
                             _ => t.rotate_around(Vec3::ZERO, Quat::from_rotation_y(turn)),
                         }
@@ -266,6 +269,7 @@ fn light_views_equal_bevys_over_moving_lights() {
         let stats = accel_app.world().resource::<CullingStats>();
         reused += stats.reused_light_walks;
         flat += stats.flat_light_views;
+        flat_on_trees += stats.flat_light_views_on_trees;
         let (want, want_flags) = light_views(&mut bevy_app);
         let (got, got_flags) = light_views(&mut accel_app);
         let mut keys: Vec<_> = want.keys().copied().collect();
@@ -304,7 +308,12 @@ fn light_views_equal_bevys_over_moving_lights() {
     }
     assert!(seen > 0, "the lights must see casters");
     assert!(reused > 0, "still frames must keep the lights' walks");
-    assert!(flat > 0, "the far-reaching light must take the flat pass");
+    assert!(flat > 0, "the far-reaching lights must take the flat pass");
+    // Every flat view but those of the two frames with stale trees takes the trees' word.
+    assert!(
+        flat_on_trees > 0 && flat_on_trees < flat,
+        "flat light views on the trees: {flat_on_trees} of {flat}"
+    );
     let store = accel_app
         .world()
         .resource::<bevy::diagnostic::DiagnosticsStore>();

@@ -7,6 +7,7 @@
 //! tests run only on what the walk found. The walks ([`super::light_walks`]) drop only what
 //! Bevy's tests would drop, so the results are Bevy's.
 
+use super::light_verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS};
 use super::light_walks::{
     LightCandidates, ViewKey, light_planes, light_sphere_may_reach, walk_shape, walk_where,
 };
@@ -84,13 +85,13 @@ type DirectionalLightItem = (
 
 /// Bevy's bounds tests for one light view: which of its lists (cube faces, the spot frustum,
 /// cascades) an admitted caster goes into.
-struct CasterTest<'a> {
+pub(super) struct CasterTest<'a> {
     /// The light's sphere, tested first (point and spot lights; `None` for cascades).
-    sphere: Option<&'a Sphere>,
+    pub(super) sphere: Option<&'a Sphere>,
     /// One frustum per list.
-    frusta: &'a [Frustum],
+    pub(super) frusta: &'a [Frustum],
     /// Whether the near plane is tested (not for cascades: a caster may stand before it).
-    near: bool,
+    pub(super) near: bool,
 }
 
 impl CasterTest<'_> {
@@ -135,12 +136,14 @@ type CascadeScratch = (Vec<u32>, Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
 type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
 
 /// Decides one light view into `lists` (sorted, as Bevy leaves them): its candidates one by
-/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop. Returns
-/// how many entities the view found: those its walk found, or, on the flat pass, those it
-/// placed.
+/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop, where
+/// `verdicts` (when given) settle the tests of the casters the trees hold. Returns how many
+/// entities the view found: those its walk found, or, on the flat pass, those it placed.
+#[allow(clippy::too_many_arguments)]
 fn decide_lists(
     candidates: &LightCandidates,
     flat: bool,
+    verdicts: Option<CasterVerdicts>,
     casters: &mut Casters,
     filter: &ViewFilter,
     test: &CasterTest,
@@ -153,14 +156,24 @@ fn decide_lists(
         casters.par_iter_mut().for_each_init(
             || threads.borrow_local_mut(),
             |local, (entity, inherited, mut view_visibility, layers, aabb, transform, range, nfc)| {
-                if !filter.admits(entity, inherited, layers, range) {
+                let settled = verdicts.and_then(|v| {
+                    v.lists(entity, nfc, aabb.is_some() && transform.is_some())
+                });
+                // The trees' word first: a caster no list reached is dropped after one read.
+                if settled == Some((0, 0)) || !filter.admits(entity, inherited, layers, range) {
                     return;
                 }
                 let (parts, placed) = &mut **local;
                 if parts.len() < n {
                     parts.resize_with(n, Vec::new);
                 }
-                if test.place(entity, aabb, transform, nfc, &mut parts[..n]) {
+                let taken = match (settled, aabb, transform) {
+                    (Some(settled), Some(aabb), Some(transform)) => {
+                        test.place_settled(entity, aabb, transform, settled, &mut parts[..n])
+                    }
+                    _ => test.place(entity, aabb, transform, nfc, &mut parts[..n]),
+                };
+                if taken {
                     view_visibility.set_visible();
                     *placed += 1;
                 }
@@ -197,7 +210,7 @@ fn decide_lists(
 
 /// Decides light view `view` into `lists` (see [`decide_lists`]), on the flat pass when
 /// [`LightCandidates::flat`] says so, records what it found for the next frame's choice, and
-/// counts it in `stats`.
+/// counts it in `stats`. `list_planes` are the lists' frusta as the trees test them.
 #[allow(clippy::too_many_arguments)]
 fn decide_view(
     view: ViewKey,
@@ -205,13 +218,34 @@ fn decide_view(
     casters: &mut Casters,
     filter: &ViewFilter,
     test: &CasterTest,
+    list_planes: &[[Vec4; 6]],
     lists: &mut [Vec<Entity>],
     threads: &mut ThreadLists,
     stats: &mut CullingStats,
-    tracked: usize,
+    trees: &AccelTrees,
 ) {
+    let tracked = trees.len();
     let flat = candidates.flat(tracked);
-    let found = decide_lists(candidates, flat, casters, filter, test, lists, threads);
+    // A flat view still takes the trees' word where they can give it (see `light_verdicts`).
+    let settled = flat && candidates.trees_current() && lists.len() <= MAX_SETTLED_LISTS;
+    if settled {
+        let light_lists = LightLists {
+            sphere: test.sphere,
+            planes: list_planes,
+            frusta: test.frusta,
+        };
+        if candidates.verdicts.walk(view, trees, &light_lists) {
+            stats.reused_light_walks += 1;
+        }
+        stats.flat_light_views_on_trees += 1;
+    }
+    let verdicts = settled
+        .then(|| candidates.verdicts.masks(view))
+        .flatten()
+        .map(|masks| CasterVerdicts { masks, trees });
+    let found = decide_lists(
+        candidates, flat, verdicts, casters, filter, test, lists, threads,
+    );
     candidates.record(view, found, tracked);
     stats.light_views += lists.len();
     if flat {
@@ -288,16 +322,18 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: &frusta.frusta,
                     near: true,
                 };
+                let face_planes = frusta.frusta.each_ref().map(|f| light_planes(f, true));
                 decide_view(
                     view,
                     &mut candidates,
                     &mut casters,
                     &filter,
                     &test,
+                    &face_planes,
                     &mut face_lists[..],
                     &mut threads,
                     &mut stats,
-                    trees.len(),
+                    &trees,
                 );
                 for (face, list) in visible_entities.iter_mut().zip(face_lists.iter_mut()) {
                     core::mem::swap(&mut face.entities, list);
@@ -340,10 +376,11 @@ pub(crate) fn cull_point_and_spot_lights(
                     &mut casters,
                     &filter,
                     &test,
+                    &[spot_planes],
                     core::slice::from_mut(&mut visible_entities.entities),
                     &mut threads,
                     &mut stats,
-                    trees.len(),
+                    &trees,
                 );
                 visible_entities.shrink();
             }
@@ -423,10 +460,11 @@ pub(crate) fn cull_directional_lights(
                     frusta: view_frusta,
                     near: false,
                 },
+                cascade_planes,
                 &mut cascade_lists[..cascades.len()],
                 &mut threads,
                 &mut stats,
-                trees.len(),
+                &trees,
             );
             for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
                 core::mem::swap(&mut cascade.entities, list);

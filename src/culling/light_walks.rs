@@ -6,6 +6,7 @@
 //! each entity's oriented box, which is then behind that plane too, and Bevy's test (one plane
 //! at a time) rejects it as well. For a light's range: see [`light_sphere_may_reach`].
 
+use super::light_verdicts::LightVerdicts;
 use super::slot_order::FoundSlots;
 use super::system::tree_plane;
 use super::untracked::UntrackedEntities;
@@ -90,6 +91,8 @@ pub(super) struct LightCandidates {
     /// pass) last frame, and the frame it was recorded. Kept across tree changes: it decides
     /// whether a walk is worth making at all.
     fractions: HashMap<ViewKey, (f32, u32)>,
+    /// The walks of the views decided by the flat pass, kept as masks of their lists.
+    pub(super) verdicts: LightVerdicts,
 }
 
 impl LightCandidates {
@@ -100,6 +103,7 @@ impl LightCandidates {
         }
         self.frame = self.frame.wrapping_add(1);
         self.reused = 0;
+        self.verdicts.start_frame(trees_changed, self.frame);
     }
 
     /// Ends a frame: drops the walks of views not seen in it.
@@ -107,6 +111,12 @@ impl LightCandidates {
         let frame = self.frame;
         self.kept.retain(|_, k| k.used == frame);
         self.fractions.retain(|_, (_, used)| *used == frame);
+        self.verdicts.end_frame();
+    }
+
+    /// Whether the trees were current at the last gathering (they follow the entities).
+    pub(super) fn trees_current(&self) -> bool {
+        !self.stale
     }
 
     /// Records what view `view` found this frame: `found` of the `tracked` entities.

@@ -12,6 +12,8 @@
 mod class_lists;
 mod flat_pass;
 #[cfg(feature = "light_culling")]
+mod light_verdicts;
+#[cfg(feature = "light_culling")]
 mod light_views;
 #[cfg(feature = "light_culling")]
 mod light_walks;

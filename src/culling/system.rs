@@ -53,6 +53,11 @@ pub struct CullingStats {
     /// Light views decided by the flat parallel pass over every caster (their walk found
     /// most of the world, or the trees were stale).
     pub flat_light_views: usize,
+    /// Of the flat light views, those whose caster tests the trees settled wherever they
+    /// could (the trees were current): a caster no list of the view reached is dropped
+    /// untested, one inside a list's frustum and the light's range goes into that list
+    /// untested, and only lists crossing its leaf get Bevy's tests.
+    pub flat_light_views_on_trees: usize,
     /// Light views whose walk was kept from the last frame (neither the view nor the trees
     /// changed); their entities are still decided one by one.
     pub reused_light_walks: usize,

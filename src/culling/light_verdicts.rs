@@ -1,0 +1,269 @@
+//! The trees' word on a light view's caster tests, for views decided by the flat pass.
+//!
+//! A light view that reaches most of the world (a point light over the whole scene, the
+//! cascades of a sun) is decided by a loop over every caster, as bevy_light does. There,
+//! Bevy's tests are most of the cost: a point light's sphere test and then six oriented-box
+//! tests, one per cube face, for every caster. One walk of the trees over all of the view's
+//! lists at once ([`accel::query::views::for_each_in_views`]) settles most of them: a caster
+//! whose tree box lies wholly inside a list's frustum (and the light's range) goes into that
+//! list with no test, one whose tree box lies outside it is not tested for it, and only the
+//! lists whose boundary crosses its leaf get Bevy's test. The camera flat pass does the same
+//! ([`super::flat_pass::TreeVerdicts`]).
+
+use super::light_views::CasterTest;
+use super::light_walks::{ViewKey, light_sphere_may_reach, walk_shape};
+use crate::trees::AccelTrees;
+use accel::query::views::{ViewClassification, ViewMasks, for_each_in_views};
+use accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
+use bevy::camera::primitives::{Aabb, Frustum, Sphere};
+use bevy::math::{Vec3A, Vec4};
+use bevy::prelude::*;
+use std::collections::HashMap;
+
+/// Most lists a light view may have for the trees to settle its tests: a point light has six
+/// cube faces, a directional light four cascades by default. A view with more is tested
+/// caster by caster.
+pub(super) const MAX_SETTLED_LISTS: usize = 8;
+
+/// Per entity index, the lists (bit i = list i) whose tree walk held the entity's tree box
+/// wholly (low byte) and those whose boundary crossed its leaf (high byte). Zero: no list
+/// reached it.
+#[derive(Default)]
+pub(super) struct ListMasks(Vec<u16>);
+
+impl ListMasks {
+    fn clear(&mut self) {
+        self.0.fill(0);
+    }
+
+    fn set(&mut self, entity: Entity, masks: ViewMasks) {
+        let i = entity.index_u32() as usize;
+        if self.0.len() <= i {
+            self.0.resize(i + 1, 0);
+        }
+        // Both masks fit a byte: views have at most `MAX_SETTLED_LISTS` lists.
+        self.0[i] = (masks.inside as u16) | ((masks.crossing as u16) << 8);
+    }
+
+    /// `(inside, crossing)` for `entity`.
+    #[inline]
+    fn get(&self, entity: Entity) -> (u32, u32) {
+        let m = self
+            .0
+            .get(entity.index_u32() as usize)
+            .copied()
+            .unwrap_or(0);
+        (u32::from(m & 0xff), u32::from(m >> 8))
+    }
+}
+
+/// A light view's lists as the walk classifies boxes: the light's range (point and spot
+/// lights) and one frustum per list.
+pub(super) struct LightLists<'a> {
+    pub(super) sphere: Option<&'a Sphere>,
+    /// Each list's frustum, as the trees test it ([`super::light_walks::light_planes`]).
+    pub(super) planes: &'a [[Vec4; 6]],
+    /// Each list's frustum as Bevy has it: a list whose half-spaces are not all finite is
+    /// never taken as holding a box (Bevy's test on it can go either way).
+    pub(super) frusta: &'a [Frustum],
+}
+
+/// How the tree box `b` stands with the lists of `undecided` (`walk_frusta`: the lists'
+/// frusta, within `sphere`'s range when there is one; only lists in `accepting` may hold a
+/// box). Why the box is grown first: Bevy tests each caster's oriented box from its own
+/// transform, in `f32`, and the tree box holds that box only up to rounding. A box grown by a
+/// few ulps of its coordinates that is inside (or outside) a list leaves room for that
+/// rounding; where it is not, Bevy's own test decides.
+fn classify_for_lists(
+    sphere: Option<&Sphere>,
+    walk_frusta: &[AccelFrustum],
+    b: &AccelAabb,
+    undecided: u32,
+    accepting: u32,
+) -> ViewClassification {
+    let mut c = ViewClassification::default();
+    let in_range = match sphere {
+        Some(sphere) => {
+            if !light_sphere_may_reach(sphere, b) {
+                c.outside = undecided;
+                return c;
+            }
+            true
+        }
+        None => true,
+    };
+    let slack = b.min.abs().max(b.max.abs()).max_element() * 4e-6 + 1e-6;
+    let grown = AccelAabb::new(b.min - Vec3A::splat(slack), b.max + Vec3A::splat(slack));
+    let in_range = in_range && sphere.is_none_or(|s| surely_within_range(s, &grown));
+    let mut todo = undecided;
+    while todo != 0 {
+        let i = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        let bit = 1 << i;
+        match walk_frusta[i].classify_aabb(&grown) {
+            Containment::Outside => c.outside |= bit,
+            Containment::Inside if in_range && accepting & bit != 0 => c.inside |= bit,
+            _ => {}
+        }
+    }
+    c
+}
+
+/// Whether Bevy's light-sphere test (`Sphere::intersects_obb`) passes for every entity whose
+/// box lies in `b`: it passes when the box's center is within the range, and the center lies
+/// in `b`, so `b`'s farthest corner within the range (less a relative allowance for the
+/// test's rounding) suffices.
+fn surely_within_range(sphere: &Sphere, b: &AccelAabb) -> bool {
+    let reach = sphere.radius * (1.0 - 1e-3);
+    let far = (b.min - sphere.center)
+        .abs()
+        .max((b.max - sphere.center).abs());
+    reach > 0.0 && far.length_squared() <= reach * reach
+}
+
+/// A walk's masks, kept while neither the trees nor the view change (as light walks are).
+struct KeptMasks {
+    /// What the walk was of, bit for bit.
+    shape: Vec<u32>,
+    masks: ListMasks,
+    used: u32,
+}
+
+/// The flat light views' walks, one per view.
+#[derive(Default)]
+pub(super) struct LightVerdicts {
+    kept: HashMap<ViewKey, KeptMasks>,
+    frame: u32,
+    /// The shape of the view being walked (scratch).
+    shape: Vec<u32>,
+    /// Its lists' frusta as the walk tests them (scratch).
+    walk_frusta: Vec<AccelFrustum>,
+}
+
+impl LightVerdicts {
+    /// Starts a frame: the trees changed, so no kept walk holds.
+    pub(super) fn start_frame(&mut self, trees_changed: bool, frame: u32) {
+        if trees_changed {
+            self.kept.values_mut().for_each(|k| k.shape.clear());
+        }
+        self.frame = frame;
+    }
+
+    /// Drops the walks of views not seen this frame.
+    pub(super) fn end_frame(&mut self) {
+        let frame = self.frame;
+        self.kept.retain(|_, k| k.used == frame);
+    }
+
+    /// Walks view `view`'s `lists` over the trees into masks ([`Self::masks`]), unless the
+    /// walk of the same lists (sphere and planes, bit for bit) is kept. Returns whether it was
+    /// kept.
+    pub(super) fn walk(&mut self, view: ViewKey, trees: &AccelTrees, lists: &LightLists) -> bool {
+        walk_shape(lists.sphere, lists.planes, &mut self.shape);
+        let frame = self.frame;
+        let kept = self.kept.entry(view).or_insert_with(|| KeptMasks {
+            shape: Vec::new(),
+            masks: ListMasks::default(),
+            used: frame,
+        });
+        kept.used = frame;
+        if !kept.shape.is_empty() && kept.shape == self.shape {
+            return true;
+        }
+        kept.shape.clone_from(&self.shape);
+        kept.masks.clear();
+        let all = (1u32 << lists.planes.len()) - 1;
+        let accepting = lists
+            .frusta
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.half_spaces.iter().all(|h| h.normal_d().is_finite()))
+            .fold(0, |acc, (i, _)| acc | 1 << i);
+        // Built once per walk: a frustum normalises its planes.
+        self.walk_frusta.clear();
+        let planes = lists.planes.iter();
+        self.walk_frusta
+            .extend(planes.map(|p| AccelFrustum::from_planes(*p)));
+        let (sphere, walk_frusta) = (lists.sphere, &self.walk_frusta[..]);
+        let masks = &mut kept.masks;
+        for_each_in_views(
+            trees.query(),
+            all,
+            |b, undecided| classify_for_lists(sphere, walk_frusta, b, undecided, accepting),
+            |slot, m| {
+                if let Some(entity) = trees.entity(slot) {
+                    masks.set(entity, m);
+                }
+            },
+        );
+        false
+    }
+
+    /// The masks of view `view`'s last walk this frame.
+    pub(super) fn masks(&self, view: ViewKey) -> Option<&ListMasks> {
+        self.kept
+            .get(&view)
+            .filter(|k| k.used == self.frame && !k.shape.is_empty())
+            .map(|k| &k.masks)
+    }
+}
+
+/// What the trees settled for one flat light view: the walk's masks, and which entities the
+/// trees hold (the rest get Bevy's tests).
+#[derive(Clone, Copy)]
+pub(super) struct CasterVerdicts<'a> {
+    pub(super) masks: &'a ListMasks,
+    pub(super) trees: &'a AccelTrees,
+}
+
+impl CasterVerdicts<'_> {
+    /// `(inside, crossing)` lists of a caster, or `None` where the trees cannot speak for it:
+    /// not in the trees, `NoFrustumCulling` (placed everywhere), or without the bounds Bevy
+    /// tests (a caster with no `Aabb` is placed everywhere too).
+    #[inline]
+    pub(super) fn lists(&self, entity: Entity, nfc: bool, has_bounds: bool) -> Option<(u32, u32)> {
+        (has_bounds && !nfc && self.trees.contains(entity)).then(|| self.masks.get(entity))
+    }
+}
+
+impl CasterTest<'_> {
+    /// [`CasterTest::place`] with the trees' verdicts for a caster they hold: lists in
+    /// `inside` take it untested (the light's range passed too), lists in `crossing` get
+    /// Bevy's tests, other lists lie outside it. Returns whether any list took it.
+    pub(super) fn place_settled(
+        &self,
+        entity: Entity,
+        aabb: &Aabb,
+        transform: &GlobalTransform,
+        (inside, crossing): (u32, u32),
+        lists: &mut [Vec<Entity>],
+    ) -> bool {
+        // Only the lists named in a mask are visited (a caster is in one or two of a cube's
+        // six faces): a loop over every list cost more than the decisions themselves.
+        let mut held = inside;
+        while held != 0 {
+            lists[held.trailing_zeros() as usize].push(entity);
+            held &= held - 1;
+        }
+        let mut visible = inside != 0;
+        if crossing == 0 {
+            return visible;
+        }
+        let model = transform.affine();
+        // A list holding the caster wholly holds it within the light's range; else the range
+        // test comes first, and failing it places nothing, as in Bevy.
+        if inside == 0 && self.sphere.is_some_and(|s| !s.intersects_obb(aabb, &model)) {
+            return false;
+        }
+        let mut crossed = crossing;
+        while crossed != 0 {
+            let i = crossed.trailing_zeros() as usize;
+            crossed &= crossed - 1;
+            if self.frusta[i].intersects_obb(aabb, &model, self.near, true) {
+                lists[i].push(entity);
+                visible = true;
+            }
+        }
+        visible
+    }
+}
