@@ -1,13 +1,17 @@
-//! The trees' word on a light view's caster tests, for views decided by the flat pass.
+//! The trees' word on a light view's caster tests.
 //!
-//! A light view that reaches most of the world (a point light over the whole scene, the
-//! cascades of a sun) is decided by a loop over every caster, as bevy_light does. There,
-//! Bevy's tests are most of the cost: a point light's sphere test and then six oriented-box
-//! tests, one per cube face, for every caster. One walk of the trees over all of the view's
-//! lists at once ([`accel::query::views::for_each_in_views`]) settles most of them: a caster
-//! whose tree box lies wholly inside a list's frustum (and the light's range) goes into that
-//! list with no test, one whose tree box lies outside it is not tested for it, and only the
-//! lists whose boundary crosses its leaf get Bevy's test. The camera flat pass does the same
+//! Bevy tests every shadow caster against every light view: a point light's sphere test and
+//! then six oriented-box tests, one per cube face; a spot light's sphere and frustum; a sun's
+//! cascades, one frustum each. One walk of the trees over all of a view's lists at once
+//! ([`accel::query::views::for_each_in_views`]) settles most of these tests: a caster whose
+//! tree box lies wholly inside a list's frustum (and the light's range) goes into that list
+//! with no test, one whose tree box lies outside it is not tested for it, and only the lists
+//! whose boundary crosses its leaf get Bevy's test.
+//!
+//! Both light passes use it. The tree path keeps the masks with each candidate the walk
+//! found ([`super::light_walks::LightCandidates`]); a view decided by the flat loop over every
+//! caster (it reaches most of the world) keeps them per entity index ([`LightVerdicts`]), and a
+//! caster no list reached is then dropped after one read, as in the camera flat pass
 //! ([`super::flat_pass::TreeVerdicts`]).
 
 use super::light_views::CasterTest;
@@ -41,20 +45,60 @@ impl ListMasks {
         if self.0.len() <= i {
             self.0.resize(i + 1, 0);
         }
-        // Both masks fit a byte: views have at most `MAX_SETTLED_LISTS` lists.
-        self.0[i] = (masks.inside as u16) | ((masks.crossing as u16) << 8);
+        self.0[i] = pack(masks);
     }
 
     /// `(inside, crossing)` for `entity`.
     #[inline]
     fn get(&self, entity: Entity) -> (u32, u32) {
-        let m = self
-            .0
-            .get(entity.index_u32() as usize)
-            .copied()
-            .unwrap_or(0);
-        (u32::from(m & 0xff), u32::from(m >> 8))
+        unpack(
+            self.0
+                .get(entity.index_u32() as usize)
+                .copied()
+                .unwrap_or(0),
+        )
     }
+}
+
+/// A walk's masks in 16 bits: the lists holding the box (low byte), those crossing its leaf
+/// (high byte). Both fit a byte: masks are kept only for views of at most
+/// [`MAX_SETTLED_LISTS`] lists.
+pub(super) fn pack(masks: ViewMasks) -> u16 {
+    (masks.inside as u16 & 0xff) | ((masks.crossing as u16 & 0xff) << 8)
+}
+
+/// `(inside, crossing)` from [`pack`]'s form.
+#[inline]
+pub(super) fn unpack(m: u16) -> (u32, u32) {
+    (u32::from(m & 0xff), u32::from(m >> 8))
+}
+
+/// Walks the trees once over all of a light view's `lists`, calling `visit(slot, masks)` for
+/// each slot some list reaches. `walk_frusta` is scratch. At most 32 lists (one bit each).
+pub(super) fn walk_lists(
+    trees: &AccelTrees,
+    lists: &LightLists,
+    walk_frusta: &mut Vec<AccelFrustum>,
+    visit: impl FnMut(u32, ViewMasks),
+) {
+    debug_assert!(lists.planes.len() <= 32 && lists.planes.len() == lists.frusta.len());
+    // Built once per walk: a frustum normalises its planes.
+    walk_frusta.clear();
+    walk_frusta.extend(lists.planes.iter().map(|p| AccelFrustum::from_planes(*p)));
+    let all = u32::MAX >> (32 - lists.planes.len().clamp(1, 32));
+    let accepting = lists
+        .frusta
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.half_spaces.iter().all(|h| h.normal_d().is_finite()))
+        .fold(0, |acc, (i, _)| acc | 1 << i);
+    let sphere = lists.sphere;
+    for_each_in_views(
+        trees.query(),
+        if lists.planes.is_empty() { 0 } else { all },
+        |b, undecided| classify_for_lists(sphere, walk_frusta, b, undecided, accepting),
+        visit,
+    );
 }
 
 /// A light view's lists as the walk classifies boxes: the light's range (point and spot
@@ -95,6 +139,15 @@ fn classify_for_lists(
     let slack = b.min.abs().max(b.max.abs()).max_element() * 4e-6 + 1e-6;
     let grown = AccelAabb::new(b.min - Vec3A::splat(slack), b.max + Vec3A::splat(slack));
     let in_range = in_range && sphere.is_none_or(|s| surely_within_range(s, &grown));
+    if !in_range && walk_frusta.len() > 1 {
+        // Across the range's boundary a cube's six faces prune no subtree (together they
+        // cover every direction) and cannot hold a box (that needs the range), yet classifying
+        // them costs six frustum tests per node: moving point lights measured up to twice as
+        // slow with it. They are classified once in range; boxes that never get there keep
+        // every face undecided and get Bevy's full tests. (A spot light's one frustum does
+        // prune, so it is classified everywhere.)
+        return c;
+    }
     let mut todo = undecided;
     while todo != 0 {
         let i = todo.trailing_zeros() as usize;
@@ -172,30 +225,12 @@ impl LightVerdicts {
         }
         kept.shape.clone_from(&self.shape);
         kept.masks.clear();
-        let all = (1u32 << lists.planes.len()) - 1;
-        let accepting = lists
-            .frusta
-            .iter()
-            .enumerate()
-            .filter(|(_, f)| f.half_spaces.iter().all(|h| h.normal_d().is_finite()))
-            .fold(0, |acc, (i, _)| acc | 1 << i);
-        // Built once per walk: a frustum normalises its planes.
-        self.walk_frusta.clear();
-        let planes = lists.planes.iter();
-        self.walk_frusta
-            .extend(planes.map(|p| AccelFrustum::from_planes(*p)));
-        let (sphere, walk_frusta) = (lists.sphere, &self.walk_frusta[..]);
         let masks = &mut kept.masks;
-        for_each_in_views(
-            trees.query(),
-            all,
-            |b, undecided| classify_for_lists(sphere, walk_frusta, b, undecided, accepting),
-            |slot, m| {
-                if let Some(entity) = trees.entity(slot) {
-                    masks.set(entity, m);
-                }
-            },
-        );
+        walk_lists(trees, lists, &mut self.walk_frusta, |slot, m| {
+            if let Some(entity) = trees.entity(slot) {
+                masks.set(entity, m);
+            }
+        });
         false
     }
 

@@ -4,17 +4,15 @@
 //! Bevy tests every shadow caster in the world against every shadow-mapped light each frame:
 //! six cube faces per point light, one frustum per spot light, one per cascade and camera per
 //! directional light. Here each light view walks the trees first, and Bevy's own per-entity
-//! tests run only on what the walk found. The walks ([`super::light_walks`]) drop only what
-//! Bevy's tests would drop, so the results are Bevy's.
+//! tests run only on what the walk found, and only where the walk could not settle them
+//! ([`super::light_verdicts`]). The walks ([`super::light_walks`]) drop only what Bevy's
+//! tests would drop, and settle only what they would pass, so the results are Bevy's.
 
-use super::light_verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS};
-use super::light_walks::{
-    LightCandidates, ViewKey, light_planes, light_sphere_may_reach, walk_shape, walk_where,
-};
+use super::light_verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS, unpack};
+use super::light_walks::{LightCandidates, ViewKey, light_planes};
 use super::system::{CullingStats, ViewFilter};
 use super::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
-use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
 use bevy::camera::primitives::{Aabb, CascadesFrusta, CubemapFrusta, Frustum, Sphere};
 use bevy::camera::visibility::{
     CascadesVisibleEntities, CubemapVisibleEntities, NoCpuCulling, NoFrustumCulling, RenderLayers,
@@ -128,9 +126,8 @@ impl CasterTest<'_> {
     }
 }
 
-/// What the directional pass reuses from frame to frame: a walk's key, the cascades' planes
-/// and the cascades' lists.
-type CascadeScratch = (Vec<u32>, Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
+/// What the directional pass reuses from frame to frame: the cascades' planes and lists.
+type CascadeScratch = (Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
 
 /// Per-thread lists of the flat pass, and how many casters each thread placed.
 type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
@@ -189,6 +186,9 @@ fn decide_lists(
         lists.iter_mut().for_each(|list| list.sort_unstable());
         found
     } else {
+        // The walk's masks settle the tests where they can (see `light_verdicts`); a view with
+        // more lists than they hold is tested caster by caster.
+        let settle = lists.len() <= MAX_SETTLED_LISTS;
         for (entity, walked) in candidates.iter() {
             let Ok((entity, inherited, mut view_visibility, layers, aabb, transform, range, nfc)) =
                 casters.get_mut(entity)
@@ -196,10 +196,16 @@ fn decide_lists(
                 continue;
             };
             // A walked `NoFrustumCulling` entity comes again among those no walk finds.
-            if (walked && nfc) || !filter.admits(entity, inherited, layers, range) {
+            if (walked.is_some() && nfc) || !filter.admits(entity, inherited, layers, range) {
                 continue;
             }
-            if test.place(entity, aabb, transform, nfc, lists) {
+            let taken = match (walked.filter(|_| settle), aabb, transform) {
+                (Some(masks), Some(aabb), Some(transform)) => {
+                    test.place_settled(entity, aabb, transform, unpack(masks), lists)
+                }
+                _ => test.place(entity, aabb, transform, nfc, lists),
+            };
+            if taken {
                 view_visibility.set_visible();
             }
         }
@@ -210,7 +216,7 @@ fn decide_lists(
 
 /// Decides light view `view` into `lists` (see [`decide_lists`]), on the flat pass when
 /// [`LightCandidates::flat`] says so, records what it found for the next frame's choice, and
-/// counts it in `stats`. `list_planes` are the lists' frusta as the trees test them.
+/// counts it in `stats`. `walked` describes the view's lists as the trees are walked for them.
 #[allow(clippy::too_many_arguments)]
 fn decide_view(
     view: ViewKey,
@@ -218,7 +224,7 @@ fn decide_view(
     casters: &mut Casters,
     filter: &ViewFilter,
     test: &CasterTest,
-    list_planes: &[[Vec4; 6]],
+    walked: &LightLists,
     lists: &mut [Vec<Entity>],
     threads: &mut ThreadLists,
     stats: &mut CullingStats,
@@ -229,12 +235,7 @@ fn decide_view(
     // A flat view still takes the trees' word where they can give it (see `light_verdicts`).
     let settled = flat && candidates.trees_current() && lists.len() <= MAX_SETTLED_LISTS;
     if settled {
-        let light_lists = LightLists {
-            sphere: test.sphere,
-            planes: list_planes,
-            frusta: test.frusta,
-        };
-        if candidates.verdicts.walk(view, trees, &light_lists) {
+        if candidates.verdicts.walk(view, trees, walked) {
             stats.reused_light_walks += 1;
         }
         stats.flat_light_views_on_trees += 1;
@@ -271,7 +272,6 @@ pub(crate) fn cull_point_and_spot_lights(
     mut point_and_spot_light_query: Query<Entity, PointOrSpotLight>,
     mut checked_lights: Local<EntityHashSet>,
     mut candidates: Local<LightCandidates>,
-    mut shape: Local<Vec<u32>>,
     mut face_lists: Local<[Vec<Entity>; 6]>,
     mut threads: Local<ThreadLists>,
     mut stats: ResMut<CullingStats>,
@@ -300,13 +300,15 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: point_light.range,
                 };
-                // The six faces together cover nearly all space (Bevy bounds them with one far
-                // plane), so the light sphere alone is walked; faces are tested per entity.
-                walk_shape(Some(&sphere), &[], &mut shape);
+                // One walk over the six faces within the light's range (see `light_verdicts`).
+                let face_planes = frusta.frusta.each_ref().map(|f| light_planes(f, true));
+                let walked = LightLists {
+                    sphere: Some(&sphere),
+                    planes: &face_planes,
+                    frusta: &frusta.frusta,
+                };
                 let view = (light, light);
-                candidates.gather(view, &shape, &trees, &untracked, |pair, found| {
-                    walk_where(pair, found, |b| light_sphere_may_reach(&sphere, b));
-                });
+                candidates.gather(view, &walked, &trees, &untracked);
                 let filter = ViewFilter {
                     view: range_view,
                     mask: layers.unwrap_or_default(),
@@ -322,14 +324,13 @@ pub(crate) fn cull_point_and_spot_lights(
                     frusta: &frusta.frusta,
                     near: true,
                 };
-                let face_planes = frusta.frusta.each_ref().map(|f| light_planes(f, true));
                 decide_view(
                     view,
                     &mut candidates,
                     &mut casters,
                     &filter,
                     &test,
-                    &face_planes,
+                    &walked,
                     &mut face_lists[..],
                     &mut threads,
                     &mut stats,
@@ -350,16 +351,14 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: spot_light.range,
                 };
-                let spot_planes = light_planes(frustum, true);
-                walk_shape(Some(&sphere), &[spot_planes], &mut shape);
-                let planes = AccelFrustum::from_planes(spot_planes);
+                let spot_planes = [light_planes(frustum, true)];
+                let walked = LightLists {
+                    sphere: Some(&sphere),
+                    planes: &spot_planes,
+                    frusta: core::slice::from_ref(frustum),
+                };
                 let view = (light, light);
-                candidates.gather(view, &shape, &trees, &untracked, |pair, found| {
-                    walk_where(pair, found, |b| {
-                        light_sphere_may_reach(&sphere, b)
-                            && planes.classify_aabb(b) != Containment::Outside
-                    });
-                });
+                candidates.gather(view, &walked, &trees, &untracked);
                 let filter = ViewFilter {
                     view: range_view,
                     mask: layers.unwrap_or_default(),
@@ -376,7 +375,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     &mut casters,
                     &filter,
                     &test,
-                    &[spot_planes],
+                    &walked,
                     core::slice::from_mut(&mut visible_entities.entities),
                     &mut threads,
                     &mut stats,
@@ -408,7 +407,7 @@ pub(crate) fn cull_directional_lights(
     let start = Instant::now();
     let ranges = ranges.as_deref();
     candidates.start_frame(trees.is_changed());
-    let (shape, cascade_planes, cascade_lists) = &mut *scratch;
+    let (cascade_planes, cascade_lists) = &mut *scratch;
     for (light_entity, light, frusta, mut visible_entities, layers, light_visibility) in &mut lights
     {
         // The same bookkeeping as Bevy: one list per cascade of every view the light has
@@ -437,14 +436,13 @@ pub(crate) fn cull_directional_lights(
             };
             cascade_planes.clear();
             cascade_planes.extend(view_frusta.iter().map(|f| light_planes(f, false)));
-            walk_shape(None, cascade_planes, shape);
+            let walked = LightLists {
+                sphere: None,
+                planes: cascade_planes,
+                frusta: view_frusta,
+            };
             let key = (light_entity, *view);
-            candidates.gather(key, shape, &trees, &untracked, |pair, found| {
-                for planes in cascade_planes.iter() {
-                    let planes = AccelFrustum::from_planes(*planes);
-                    pair.for_each_in_frustum(&planes, |slot, _| found.push(slot, true));
-                }
-            });
+            candidates.gather(key, &walked, &trees, &untracked);
             // As for cube faces: the cascades' lists go through scratch lists and back.
             cascade_lists.resize_with(cascades.len(), Vec::new);
             for (cascade, list) in cascades.iter_mut().zip(cascade_lists.iter_mut()) {
@@ -460,7 +458,7 @@ pub(crate) fn cull_directional_lights(
                     frusta: view_frusta,
                     near: false,
                 },
-                cascade_planes,
+                &walked,
                 &mut cascade_lists[..cascades.len()],
                 &mut threads,
                 &mut stats,

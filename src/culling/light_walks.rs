@@ -6,18 +6,15 @@
 //! each entity's oriented box, which is then behind that plane too, and Bevy's test (one plane
 //! at a time) rejects it as well. For a light's range: see [`light_sphere_may_reach`].
 
-use super::light_verdicts::LightVerdicts;
+use super::light_verdicts::{LightLists, LightVerdicts, pack, walk_lists};
 use super::slot_order::FoundSlots;
 use super::system::tree_plane;
 use super::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
 use accel::Frustum as AccelFrustum;
-use accel::dynamic::StaticDynamicPair;
-use accel::query::binary::for_each_leaf_primitive;
 use bevy::camera::primitives::{Frustum, Sphere};
 use bevy::math::Vec4;
 use bevy::prelude::*;
-use core::ops::ControlFlow;
 use std::collections::HashMap;
 
 /// The planes of a light view as the trees test them. Point and spot lights test all six;
@@ -58,7 +55,7 @@ const FLAT_LIGHT_VIEW_ABOVE: f32 = 1.0 / 3.0;
 struct KeptWalk {
     /// What the walk was of, bit for bit (sphere, planes).
     shape: Vec<u32>,
-    walked: Vec<Entity>,
+    walked: Vec<(Entity, u16)>,
     /// The frame the entry was last used, so that walks of lights gone are dropped.
     used: u32,
 }
@@ -75,14 +72,18 @@ pub(super) struct LightCandidates {
     /// Light views this frame whose walk was kept from the last one.
     pub(super) reused: usize,
     found: FoundSlots,
-    /// Found by the walks, in slot order. `NoFrustumCulling` ones among them are skipped: they
-    /// come again in `others`.
-    walked: Vec<Entity>,
-    /// Unused: light walks mark every find for the exact test.
-    proved_inside: Vec<Entity>,
+    /// Found by the walk, in slot order, each with the view's lists that hold it and those
+    /// that cross its leaf ([`super::light_verdicts::pack`]'s form). `NoFrustumCulling` ones
+    /// among them are skipped: they come again in `others`.
+    walked: Vec<(Entity, u16)>,
+    /// The view's lists' frusta as the walk tests them (scratch).
+    walk_frusta: Vec<accel::Frustum>,
+    /// The shape of the view being gathered (scratch).
+    shape: Vec<u32>,
     /// Everything a walk cannot find (see [`UntrackedEntities`]).
     others: Vec<Entity>,
-    /// The trees were not current at the last gathering.
+    /// The trees were not current at the last gathering, or its view had more lists than
+    /// one walk can tell apart (32).
     stale: bool,
     /// The last gathering skipped the walk: the view took the flat pass last frame and saw
     /// most of the world.
@@ -125,21 +126,19 @@ impl LightCandidates {
         self.fractions.insert(view, (fraction, self.frame));
     }
 
-    /// Gathers the candidates of light view `view`, whose walk is described by `shape`: the
-    /// walk kept from the last frame if it was of the same shape, else what `walk` finds in
-    /// the trees (it pushes slots, repeats allowed). Gathers nothing when the trees are not
-    /// current: [`Self::flat`] then says so.
+    /// Gathers the candidates of light view `view`: the walk kept from the last frame if it
+    /// was of the same `lists` (bit for bit), else what one walk of the trees over all of them
+    /// finds. Gathers nothing when the trees are not current: [`Self::flat`] then says so.
     pub(super) fn gather(
         &mut self,
         view: ViewKey,
-        shape: &[u32],
+        lists: &LightLists,
         trees: &AccelTrees,
         untracked: &UntrackedEntities,
-        walk: impl FnOnce(&StaticDynamicPair, &mut FoundSlots),
     ) {
         self.walked.clear();
         self.others.clear();
-        self.stale = !untracked.trees_current();
+        self.stale = !untracked.trees_current() || lists.planes.len() > 32;
         if self.stale {
             self.kept.clear();
             return;
@@ -155,37 +154,35 @@ impl LightCandidates {
             return;
         }
         self.others.extend(untracked.iter());
-        if let Some(kept) = self.kept.get_mut(&view).filter(|k| k.shape == shape) {
+        walk_shape(lists.sphere, lists.planes, &mut self.shape);
+        if let Some(kept) = self.kept.get_mut(&view).filter(|k| k.shape == self.shape) {
             kept.used = self.frame;
             self.walked.extend_from_slice(&kept.walked);
             self.reused += 1;
             return;
         }
-        self.found.clear();
-        walk(trees.query(), &mut self.found);
-        // Slot order is table order, so the decisions read the rows nearly in sequence; views
-        // made of several frusta find an entity once per frustum, next to each other here.
-        self.found.drain_entities(
-            trees.slot_entities(),
-            &mut self.proved_inside,
-            &mut self.walked,
-        );
-        self.walked.dedup();
+        let found = &mut self.found;
+        found.clear();
+        walk_lists(trees, lists, &mut self.walk_frusta, |slot, masks| {
+            found.push_with_flags(slot, pack(masks));
+        });
+        // Slot order is table order, so the decisions read the rows nearly in sequence.
+        found.drain_entities_with_flags(trees.slot_entities(), &mut self.walked);
         let kept = self.kept.entry(view).or_insert_with(|| KeptWalk {
             shape: Vec::new(),
             walked: Vec::new(),
             used: 0,
         });
-        kept.shape.clear();
-        kept.shape.extend_from_slice(shape);
+        kept.shape.clone_from(&self.shape);
         kept.walked.clone_from(&self.walked);
         kept.used = self.frame;
     }
 
-    /// Each candidate with whether a walk found it.
-    pub(super) fn iter(&self) -> impl Iterator<Item = (Entity, bool)> + '_ {
-        let walked = self.walked.iter().map(|&e| (e, true));
-        walked.chain(self.others.iter().map(|&e| (e, false)))
+    /// Each candidate with, if a walk found it, the masks of its lists (in
+    /// [`super::light_verdicts::pack`]'s form).
+    pub(super) fn iter(&self) -> impl Iterator<Item = (Entity, Option<u16>)> + '_ {
+        let walked = self.walked.iter().map(|&(e, m)| (e, Some(m)));
+        walked.chain(self.others.iter().map(|&e| (e, None)))
     }
 
     pub(super) fn len(&self) -> usize {
@@ -218,17 +215,4 @@ pub(super) fn walk_shape(sphere: Option<&Sphere>, planes: &[[Vec4; 6]], out: &mu
     for p in planes.iter().flatten() {
         out.extend(p.to_array().map(f32::to_bits));
     }
-}
-
-/// Pushes every slot whose tree box passes `accept` (which must fail for every box inside a
-/// box it fails).
-pub(super) fn walk_where(
-    pair: &StaticDynamicPair,
-    found: &mut FoundSlots,
-    accept: impl FnMut(&accel::Aabb) -> bool,
-) {
-    for_each_leaf_primitive(pair, accept, |slot| {
-        found.push(slot, true);
-        ControlFlow::Continue(())
-    });
 }

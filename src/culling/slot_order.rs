@@ -17,6 +17,9 @@ pub(crate) struct FoundSlots {
     keys: Vec<u64>,
     /// One bit per key value; all zero between uses (draining clears what it reads).
     bits: Vec<u64>,
+    /// Per slot, the flags pushed with it by [`Self::push_with_flags`]. Only the entries of
+    /// slots pushed since the last drain are read, so it is never cleared.
+    flags_by_slot: Vec<u16>,
 }
 
 impl FoundSlots {
@@ -29,6 +32,34 @@ impl FoundSlots {
     #[inline]
     pub(crate) fn push(&mut self, slot: u32, exact: bool) {
         self.keys.push((u64::from(slot) << 1) | u64::from(exact));
+    }
+
+    /// Records a slot the walk found with flags of the caller's (its entity still needs the
+    /// exact test); a slot is pushed this way at most once between drains.
+    #[inline]
+    pub(crate) fn push_with_flags(&mut self, slot: u32, flags: u16) {
+        self.push(slot, true);
+        let i = slot as usize;
+        if self.flags_by_slot.len() <= i {
+            self.flags_by_slot.resize(i + 1, 0);
+        }
+        self.flags_by_slot[i] = flags;
+    }
+
+    /// The entities of the slots found with [`Self::push_with_flags`], each with its flags, in
+    /// slot order into `out`; then forgets them.
+    pub(crate) fn drain_entities_with_flags(
+        &mut self,
+        slot_entities: &[Option<Entity>],
+        out: &mut Vec<(Entity, u16)>,
+    ) {
+        let flags = core::mem::take(&mut self.flags_by_slot);
+        for (slot, _) in self.drain_in_slot_order(slot_entities.len()) {
+            if let Some(Some(entity)) = slot_entities.get(slot as usize) {
+                out.push((*entity, flags.get(slot as usize).copied().unwrap_or(0)));
+            }
+        }
+        self.flags_by_slot = flags;
     }
 
     /// The slots found as `(slot, exact)`, in ascending slot order, then forgets them.
@@ -142,5 +173,26 @@ mod tests {
         };
         assert_eq!(inside, expect(false));
         assert_eq!(crossing, expect(true));
+    }
+
+    /// Flags come out with their slots' entities, in slot order, free slots skipped.
+    #[test]
+    fn drains_entities_with_their_flags() {
+        let slot_entities: Vec<Option<Entity>> = (0..3_000u32)
+            .map(|i| (i % 5 != 1).then(|| Entity::from_raw_u32(i + 7).unwrap()))
+            .collect();
+        let mut found = FoundSlots::default();
+        for round in 0..2u16 {
+            for slot in (0..3_000u32).rev().filter(|s| s % 3 == 0) {
+                found.push_with_flags(slot, slot as u16 ^ round);
+            }
+            let mut got = Vec::new();
+            found.drain_entities_with_flags(&slot_entities, &mut got);
+            let want: Vec<(Entity, u16)> = (0..3_000u32)
+                .filter(|s| s % 3 == 0)
+                .filter_map(|s| slot_entities[s as usize].map(|e| (e, s as u16 ^ round)))
+                .collect();
+            assert_eq!(got, want, "round {round}");
+        }
     }
 }

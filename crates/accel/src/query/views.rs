@@ -4,9 +4,9 @@
 //! A point light's shadow has six cube faces, a directional light four cascades per camera.
 //! Walking the tree once per view repeats the descent through the top of the tree, where
 //! every view's answer is "crossing", once for each view. Here each node is classified only
-//! against the views still undecided above it (a plane mask per view, as in Assarsson and
-//! Möller's coherent frustum culling, 2000), and a subtree leaves the walk as soon as every
-//! view has decided it.
+//! against the views still undecided above it (Assarsson and Möller's plane masking, 2000,
+//! applied to whole views), and a subtree leaves the walk as soon as every view has decided
+//! it.
 
 use super::binary::{SubtreeExt, for_each_leaf_primitive};
 use super::{BoundingTree, TraversalStack};
