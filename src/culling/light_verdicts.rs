@@ -14,13 +14,14 @@
 //! caster no list reached is then dropped after one read, as in the camera flat pass
 //! ([`super::flat_pass::TreeVerdicts`]).
 
+use super::bevy_rounding::grown_past_rounding;
 use super::light_views::CasterTest;
 use super::light_walks::{ViewKey, light_sphere_may_reach, walk_shape};
 use crate::trees::AccelTrees;
 use accel::query::views::{ViewClassification, ViewMasks, for_each_in_views};
 use accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
-use bevy::math::{Vec3A, Vec4};
+use bevy::math::Vec4;
 use bevy::prelude::*;
 use std::collections::HashMap;
 
@@ -114,10 +115,7 @@ pub(super) struct LightLists<'a> {
 
 /// How the tree box `b` stands with the lists of `undecided` (`walk_frusta`: the lists'
 /// frusta, within `sphere`'s range when there is one; only lists in `accepting` may hold a
-/// box). Why the box is grown first: Bevy tests each caster's oriented box from its own
-/// transform, in `f32`, and the tree box holds that box only up to rounding. A box grown by a
-/// few ulps of its coordinates that is inside (or outside) a list leaves room for that
-/// rounding; where it is not, Bevy's own test decides.
+/// box). The box is grown past rounding first, as for camera walks (see `bevy_rounding`).
 fn classify_for_lists(
     sphere: Option<&Sphere>,
     walk_frusta: &[AccelFrustum],
@@ -136,8 +134,7 @@ fn classify_for_lists(
         }
         None => true,
     };
-    let slack = b.min.abs().max(b.max.abs()).max_element() * 4e-6 + 1e-6;
-    let grown = AccelAabb::new(b.min - Vec3A::splat(slack), b.max + Vec3A::splat(slack));
+    let grown = grown_past_rounding(b);
     let in_range = in_range && sphere.is_none_or(|s| surely_within_range(s, &grown));
     if !in_range && walk_frusta.len() > 1 {
         // Across the range's boundary a cube's six faces prune no subtree (together they

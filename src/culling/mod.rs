@@ -9,6 +9,7 @@
 //! lookup per tree hit would cost more there), still taking the trees' word wherever a leaf is
 //! wholly in or out of view.
 
+mod bevy_rounding;
 mod class_lists;
 mod flat_pass;
 #[cfg(feature = "light_culling")]

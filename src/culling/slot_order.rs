@@ -19,6 +19,7 @@ pub(crate) struct FoundSlots {
     bits: Vec<u64>,
     /// Per slot, the flags pushed with it by [`Self::push_with_flags`]. Only the entries of
     /// slots pushed since the last drain are read, so it is never cleared.
+    #[cfg(feature = "light_culling")]
     flags_by_slot: Vec<u16>,
 }
 
@@ -34,6 +35,7 @@ impl FoundSlots {
         self.keys.push((u64::from(slot) << 1) | u64::from(exact));
     }
 
+    #[cfg(feature = "light_culling")]
     /// Records a slot the walk found with flags of the caller's (its entity still needs the
     /// exact test); a slot is pushed this way at most once between drains.
     #[inline]
@@ -46,6 +48,7 @@ impl FoundSlots {
         self.flags_by_slot[i] = flags;
     }
 
+    #[cfg(feature = "light_culling")]
     /// The entities of the slots found with [`Self::push_with_flags`], each with its flags, in
     /// slot order into `out`; then forgets them.
     pub(crate) fn drain_entities_with_flags(
@@ -176,6 +179,7 @@ mod tests {
     }
 
     /// Flags come out with their slots' entities, in slot order, free slots skipped.
+    #[cfg(feature = "light_culling")]
     #[test]
     fn drains_entities_with_their_flags() {
         let slot_entities: Vec<Option<Entity>> = (0..3_000u32)

@@ -1,5 +1,6 @@
 //! The culling system: trees for the entities they hold, Bevy's tests for the rest.
 
+use super::bevy_rounding::walk_frustum_for_bevy;
 use super::class_lists::ClassLists;
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
 use super::slot_order::FoundSlots;
@@ -7,7 +8,7 @@ use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPa
 use super::untracked::UntrackedEntities;
 use super::view_walk::{ViewWalk, WalkForm};
 use crate::trees::AccelTrees;
-use accel::{Containment, Frustum as AccelFrustum, SpatialQuery};
+use accel::{Containment, Frustum as AccelFrustum};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, VisibleEntities, VisibleEntityRanges};
 use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
@@ -193,7 +194,8 @@ pub(crate) fn cull_views_with_trees(
                     s.reused_walks += 1;
                 } else {
                     walk.restart(planes, WalkForm::Bits);
-                    trees.query().for_each_in_frustum(
+                    walk_frustum_for_bevy(
+                        &trees,
                         &AccelFrustum::from_planes(planes),
                         |slot, containment| {
                             if let Some(entity) = trees.entity(slot) {
@@ -267,7 +269,8 @@ pub(crate) fn cull_views_with_trees(
                 // tables; they are decided in slot order instead (see `FoundSlots`).
                 walk.restart(planes, WalkForm::Lists);
                 found.clear();
-                trees.query().for_each_in_frustum(
+                walk_frustum_for_bevy(
+                    &trees,
                     &AccelFrustum::from_planes(planes),
                     |slot, containment| found.push(slot, containment != Containment::Inside),
                 );
