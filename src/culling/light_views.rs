@@ -133,8 +133,9 @@ type CascadeScratch = (Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
 type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
 
 /// Decides one light view into `lists` (sorted, as Bevy leaves them): its candidates one by
-/// one, or, when [`LightCandidates::flat`], every caster in Bevy's own parallel loop, where
-/// `verdicts` (when given) settle the tests of the casters the trees hold. Returns how many
+/// one (with their walk's masks), or, when [`LightCandidates::flat`], every caster in a
+/// parallel loop as Bevy's, where `verdicts` (when given) settle the tests of the casters the
+/// trees hold. Returns how many
 /// entities the view found: those its walk found, or, on the flat pass, those it placed.
 #[allow(clippy::too_many_arguments)]
 fn decide_lists(
