@@ -11,7 +11,8 @@
 //! search, none (the test below).
 
 use crate::trees::AccelTrees;
-use accel::query::views::{ViewClassification, for_each_in_views};
+use accel::SpatialQuery;
+use accel::query::views::ViewClassification;
 use accel::{Aabb, Containment, Frustum};
 use bevy::math::Vec3A;
 
@@ -37,8 +38,7 @@ pub(crate) fn walk_frustum_for_bevy(
     frustum: &Frustum,
     mut visit: impl FnMut(u32, Containment),
 ) {
-    for_each_in_views(
-        trees.query(),
+    trees.query().for_each_in_views(
         1,
         |b, _| match classify_for_bevy(frustum, b) {
             Containment::Inside => ViewClassification {

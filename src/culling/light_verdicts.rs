@@ -3,7 +3,7 @@
 //! Bevy tests every shadow caster against every light view: a point light's sphere test and
 //! then six oriented-box tests, one per cube face; a spot light's sphere and frustum; a sun's
 //! cascades, one frustum each. One walk of the trees over all of a view's lists at once
-//! ([`accel::query::views::for_each_in_views`]) settles most of these tests: a caster whose
+//! ([`accel::SpatialQuery::for_each_in_views`]) settles most of these tests: a caster whose
 //! tree box lies wholly inside a list's frustum (and the light's range) goes into that list
 //! with no test, one whose tree box lies outside it is not tested for it, and only the lists
 //! whose boundary crosses its leaf get Bevy's test.
@@ -18,7 +18,8 @@ use super::bevy_rounding::grown_past_rounding;
 use super::light_views::CasterTest;
 use super::light_walks::{ViewKey, light_sphere_may_reach, walk_shape};
 use crate::trees::AccelTrees;
-use accel::query::views::{ViewClassification, ViewMasks, for_each_in_views};
+use accel::SpatialQuery;
+use accel::query::views::{ViewClassification, ViewMasks};
 use accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::math::Vec4;
@@ -94,8 +95,7 @@ pub(super) fn walk_lists(
         .filter(|(_, f)| f.half_spaces.iter().all(|h| h.normal_d().is_finite()))
         .fold(0, |acc, (i, _)| acc | 1 << i);
     let sphere = lists.sphere;
-    for_each_in_views(
-        trees.query(),
+    trees.query().for_each_in_views(
         if lists.planes.is_empty() { 0 } else { all },
         |b, undecided| classify_for_lists(sphere, walk_frusta, b, undecided, accepting),
         visit,

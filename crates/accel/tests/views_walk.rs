@@ -1,12 +1,14 @@
-//! The multi-view walk (`query::views::for_each_in_views`) against brute force: several
-//! frusta at once over the static tree, the dynamic tree and the pair of both.
+//! The multi-view walk (`SpatialQuery::for_each_in_views`) against brute force: several
+//! frusta at once over the static tree, its wide and sphere forms, the dynamic tree and the
+//! pair of both.
 
 mod scenes;
 
+use accel::bvh::SphereBvh;
+use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
 use accel::dynamic::{DynamicBvh, StaticDynamicPair};
-use accel::query::BoundingTree;
 use accel::query::views::{ViewClassification, ViewMasks, for_each_in_views};
-use accel::{Aabb, BuildConfig, Bvh, Containment, Frustum};
+use accel::{Aabb, BuildConfig, Bvh, Containment, Frustum, SpatialQuery};
 use scenes::{Rng, random_box, random_frustum};
 use std::collections::HashMap;
 
@@ -29,11 +31,10 @@ fn classify(views: &[Frustum], b: &Aabb, undecided: u32) -> ViewClassification {
 /// Walks `views` over `tree` and checks every primitive of `model` against brute force: each
 /// visited once at most; a view holding it wholly holds its exact box; every view its exact
 /// box is not outside of reaches it.
-fn check_walk<T: BoundingTree>(tree: &T, model: &HashMap<u32, Aabb>, views: &[Frustum]) {
+fn check_walk<T: SpatialQuery>(tree: &T, model: &HashMap<u32, Aabb>, views: &[Frustum]) {
     let all = (1u32 << views.len()) - 1;
     let mut got: HashMap<u32, ViewMasks> = HashMap::new();
-    for_each_in_views(
-        tree,
+    tree.for_each_in_views(
         all,
         |b, undecided| classify(views, b, undecided),
         |id, masks| {
@@ -80,6 +81,12 @@ fn every_view_reaches_what_brute_force_finds_on_every_tree() {
         .map(|(i, b)| (i as u32, *b))
         .collect();
     let bvh = Bvh::build(&statics, &BuildConfig::default());
+    let (bvh8, qbvh8, bvh4) = (
+        Bvh8::from_bvh(&bvh),
+        QBvh8::from_bvh(&bvh),
+        Bvh4::from_bvh(&bvh),
+    );
+    let spheres = SphereBvh::from_bvh(&bvh, &statics);
     let mut dynamic = DynamicBvh::new();
     let mut dynamic_model = HashMap::new();
     for i in 0..1_500u32 {
@@ -100,6 +107,10 @@ fn every_view_reaches_what_brute_force_finds_on_every_tree() {
             views[1] = views[0];
         }
         check_walk(&bvh, &static_model, &views);
+        check_walk(&bvh8, &static_model, &views);
+        check_walk(&qbvh8, &static_model, &views);
+        check_walk(&bvh4, &static_model, &views);
+        check_walk(&spheres, &static_model, &views);
         check_walk(&dynamic, &dynamic_model, &views);
         check_walk(&pair, &pair_model, &views);
     }

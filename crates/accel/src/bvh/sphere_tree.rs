@@ -3,6 +3,7 @@
 use super::Bvh;
 use crate::query::RayWalk;
 use crate::query::TraversalStack;
+use crate::query::views::{ViewClassification, ViewMasks};
 use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
@@ -205,6 +206,47 @@ impl SpatialQuery for SphereBvh {
                     let inside = c == Containment::Inside;
                     stack.push((self.first[n as usize] + 1, inside));
                     stack.push((self.first[n as usize], inside));
+                }
+            }
+        }
+    }
+
+    /// A node's bounds here are the box around its sphere.
+    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
+    where
+        C: FnMut(&Aabb, u32) -> ViewClassification,
+        F: FnMut(u32, ViewMasks),
+    {
+        if self.spheres.is_empty() || views == 0 {
+            return;
+        }
+        let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
+        stack.push((0, 0, views));
+        while let Some((n, inside_above, undecided_above)) = stack.pop() {
+            let sphere = &self.spheres[n as usize];
+            let bounds = Aabb::from_center_half_extents(sphere.center, Vec3A::splat(sphere.radius));
+            let c = if undecided_above == 0 {
+                ViewClassification::default()
+            } else {
+                classify(&bounds, undecided_above)
+            };
+            let newly_inside = c.inside & undecided_above;
+            let inside = inside_above | newly_inside;
+            let undecided = undecided_above & !(newly_inside | c.outside);
+            if inside == 0 && undecided == 0 {
+                continue;
+            }
+            match self.leaf(n as usize) {
+                Some(prims) => {
+                    let masks = ViewMasks {
+                        inside,
+                        crossing: undecided,
+                    };
+                    prims.iter().for_each(|&p| visit(p, masks));
+                }
+                None => {
+                    stack.push((self.first[n as usize] + 1, inside, undecided));
+                    stack.push((self.first[n as usize], inside, undecided));
                 }
             }
         }

@@ -334,6 +334,13 @@ macro_rules! impl_spatial_query_for_binary_tree {
             {
                 $crate::query::binary::for_each_in_frustum(self, frustum, visit)
             }
+            fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
+            where
+                C: FnMut(&$crate::Aabb, u32) -> $crate::query::views::ViewClassification,
+                F: FnMut(u32, $crate::query::views::ViewMasks),
+            {
+                $crate::query::views::for_each_in_views(self, views, classify, visit)
+            }
             fn nearest_k<F>(
                 &self,
                 point: glam::Vec3A,

@@ -102,6 +102,16 @@ pub trait SpatialQuery: RayWalk {
     where
         F: FnMut(u32, Containment);
 
+    /// Walks several views at once (up to 32, one bit each in `views`), calling
+    /// `visit(primitive, masks)` once for each primitive that some view reaches, with the views
+    /// that hold its bounds wholly and those that cross them. `classify(bounds, undecided)`
+    /// says how a node's bounds stand with the views still undecided above it; it must be
+    /// monotone (see [`views::for_each_in_views`], the walk of every binary tree).
+    fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
+    where
+        C: FnMut(&Aabb, u32) -> views::ViewClassification,
+        F: FnMut(u32, views::ViewMasks);
+
     /// The `k` primitives nearest to `point`, nearest first, as `(id, squared distance)`.
     /// `distance_squared(id)` is the exact squared distance of a primitive; subtrees whose box
     /// is farther than the k-th best so far are skipped. Ties are broken by id.

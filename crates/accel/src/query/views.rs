@@ -1,5 +1,7 @@
 //! One walk for several views at once: which views hold each primitive wholly, which only
-//! cross it, and which never reach it.
+//! cross it, and which never reach it. [`for_each_in_views`] is the walk of every binary
+//! tree behind [`SpatialQuery::for_each_in_views`](super::SpatialQuery::for_each_in_views);
+//! wide and sphere trees walk their own nodes by the same rules.
 //!
 //! A point light's shadow has six cube faces, a directional light four cascades per camera.
 //! Walking the tree once per view repeats the descent through the top of the tree, where

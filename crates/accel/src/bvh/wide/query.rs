@@ -4,6 +4,7 @@ use super::ray::visit_ray;
 use super::{WideBvh, WideLayout};
 use crate::query::RayWalk;
 use crate::query::TraversalStack;
+use crate::query::views::{ViewClassification, ViewMasks};
 use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use core::cmp::Reverse;
 use core::ops::ControlFlow;
@@ -131,6 +132,49 @@ impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
                         });
                     }
                     Containment::Intersecting => stack.push(node.child(slot)),
+                }
+            }
+        }
+    }
+
+    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
+    where
+        C: FnMut(&Aabb, u32) -> ViewClassification,
+        F: FnMut(u32, ViewMasks),
+    {
+        if self.nodes.is_empty() || views == 0 {
+            return;
+        }
+        // As the binary walk (`query::views`), per slot: each entry carries the views already
+        // holding its box and those still to ask.
+        let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
+        stack.push((0, 0, views));
+        while let Some((n, inside_above, undecided_above)) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            for slot in (0..N).filter(|&s| node.is_used(s)) {
+                let c = classify(&node.child_aabb(slot), undecided_above);
+                let newly_inside = c.inside & undecided_above;
+                let inside = inside_above | newly_inside;
+                let undecided = undecided_above & !(newly_inside | c.outside);
+                if inside == 0 && undecided == 0 {
+                    continue;
+                }
+                let masks = ViewMasks {
+                    inside,
+                    crossing: undecided,
+                };
+                if undecided == 0 {
+                    self.visit_slot_subtree(n, slot, &mut |p| {
+                        visit(p, masks);
+                        ControlFlow::Continue(())
+                    });
+                } else if node.is_leaf(slot) {
+                    let _ = self.visit_slot_primitives(n, slot, &mut |p| {
+                        visit(p, masks);
+                        ControlFlow::Continue(())
+                    });
+                } else {
+                    stack.push((node.child(slot), inside, undecided));
                 }
             }
         }
