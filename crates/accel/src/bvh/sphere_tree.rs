@@ -220,33 +220,34 @@ impl SpatialQuery for SphereBvh {
         if self.spheres.is_empty() || views == 0 {
             return;
         }
-        let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
-        stack.push((0, 0, views));
-        while let Some((n, inside_above, undecided_above)) = stack.pop() {
-            let sphere = &self.spheres[n as usize];
-            let bounds = Aabb::from_center_half_extents(sphere.center, Vec3A::splat(sphere.radius));
-            let c = if undecided_above == 0 {
+        let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
+        stack.push((
+            0,
+            ViewMasks {
+                inside: 0,
+                crossing: views,
+            },
+        ));
+        while let Some((n, above)) = stack.pop() {
+            let c = if above.crossing == 0 {
+                // Every view decided an ancestor: nothing left to ask.
                 ViewClassification::default()
             } else {
-                classify(&bounds, undecided_above)
+                let sphere = &self.spheres[n as usize];
+                let half = Vec3A::splat(sphere.radius);
+                classify(
+                    &Aabb::from_center_half_extents(sphere.center, half),
+                    above.crossing,
+                )
             };
-            let newly_inside = c.inside & undecided_above;
-            let inside = inside_above | newly_inside;
-            let undecided = undecided_above & !(newly_inside | c.outside);
-            if inside == 0 && undecided == 0 {
+            let Some(masks) = above.below(c) else {
                 continue;
-            }
+            };
             match self.leaf(n as usize) {
-                Some(prims) => {
-                    let masks = ViewMasks {
-                        inside,
-                        crossing: undecided,
-                    };
-                    prims.iter().for_each(|&p| visit(p, masks));
-                }
+                Some(prims) => prims.iter().for_each(|&p| visit(p, masks)),
                 None => {
-                    stack.push((self.first[n as usize] + 1, inside, undecided));
-                    stack.push((self.first[n as usize], inside, undecided));
+                    stack.push((self.first[n as usize] + 1, masks));
+                    stack.push((self.first[n as usize], masks));
                 }
             }
         }

@@ -26,6 +26,23 @@ pub struct ViewMasks {
     pub crossing: u32,
 }
 
+impl ViewMasks {
+    /// The masks of a node whose bounds classify as `c` against the views still undecided
+    /// above it, given its parent's masks (`self`: the views holding the parent wholly, and
+    /// those crossing it, which are the ones asked about). `None` when no view reaches the
+    /// node. Every walk of [`SpatialQuery::for_each_in_views`](super::SpatialQuery) steps
+    /// down its tree with this.
+    #[inline]
+    pub fn below(self, c: ViewClassification) -> Option<ViewMasks> {
+        let newly_inside = c.inside & self.crossing;
+        let masks = ViewMasks {
+            inside: self.inside | newly_inside,
+            crossing: self.crossing & !(newly_inside | c.outside),
+        };
+        (masks.inside | masks.crossing != 0).then_some(masks)
+    }
+}
+
 /// How a box stands with the views asked about: `inside` holds the views containing it
 /// wholly, `outside` those it lies wholly outside of. Views in neither are undecided.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -81,23 +98,22 @@ where
     if views == 0 {
         return;
     }
-    // Each entry carries the views that already hold its whole box, and those still to ask.
-    let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
-    stack.push((root, 0, views));
-    while let Some((node, inside, undecided)) = stack.pop() {
-        let c = classify(&tree.node_bounds(node), undecided);
-        let newly_inside = c.inside & undecided;
-        let inside = inside | newly_inside;
-        let undecided = undecided & !(newly_inside | c.outside);
-        if inside == 0 && undecided == 0 {
+    // Each entry carries its parent's masks: the views holding it whole, and those to ask.
+    let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
+    stack.push((
+        root,
+        ViewMasks {
+            inside: 0,
+            crossing: views,
+        },
+    ));
+    while let Some((node, above)) = stack.pop() {
+        let c = classify(&tree.node_bounds(node), above.crossing);
+        let Some(masks) = above.below(c) else {
             continue;
-        }
-        if undecided == 0 {
+        };
+        if masks.crossing == 0 {
             // Every view has decided the subtree: emit it whole without another test.
-            let masks = ViewMasks {
-                inside,
-                crossing: 0,
-            };
             if let Some(prims) = tree.subtree_primitives(node) {
                 prims.iter().for_each(|&p| visit(p, masks));
                 continue;
@@ -116,14 +132,10 @@ where
             Some([a, b]) => {
                 tree.prefetch_node(b);
                 tree.prefetch_node(a);
-                stack.push((b, inside, undecided));
-                stack.push((a, inside, undecided));
+                stack.push((b, masks));
+                stack.push((a, masks));
             }
             None => {
-                let masks = ViewMasks {
-                    inside,
-                    crossing: undecided,
-                };
                 for &p in tree.leaf_primitives(node) {
                     visit(p, masks);
                 }

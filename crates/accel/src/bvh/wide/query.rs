@@ -145,25 +145,23 @@ impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
         if self.nodes.is_empty() || views == 0 {
             return;
         }
-        // As the binary walk (`query::views`), per slot: each entry carries the views already
-        // holding its box and those still to ask.
-        let mut stack: TraversalStack<(u32, u32, u32)> = TraversalStack::new();
-        stack.push((0, 0, views));
-        while let Some((n, inside_above, undecided_above)) = stack.pop() {
+        // As the binary walk (`query::views`), per slot: each entry carries its node's masks.
+        let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
+        stack.push((
+            0,
+            ViewMasks {
+                inside: 0,
+                crossing: views,
+            },
+        ));
+        while let Some((n, above)) = stack.pop() {
             let node = &self.nodes[n as usize];
             for slot in (0..N).filter(|&s| node.is_used(s)) {
-                let c = classify(&node.child_aabb(slot), undecided_above);
-                let newly_inside = c.inside & undecided_above;
-                let inside = inside_above | newly_inside;
-                let undecided = undecided_above & !(newly_inside | c.outside);
-                if inside == 0 && undecided == 0 {
+                let c = classify(&node.child_aabb(slot), above.crossing);
+                let Some(masks) = above.below(c) else {
                     continue;
-                }
-                let masks = ViewMasks {
-                    inside,
-                    crossing: undecided,
                 };
-                if undecided == 0 {
+                if masks.crossing == 0 {
                     self.visit_slot_subtree(n, slot, &mut |p| {
                         visit(p, masks);
                         ControlFlow::Continue(())
@@ -174,7 +172,7 @@ impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
                         ControlFlow::Continue(())
                     });
                 } else {
-                    stack.push((node.child(slot), inside, undecided));
+                    stack.push((node.child(slot), masks));
                 }
             }
         }
