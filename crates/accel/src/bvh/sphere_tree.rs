@@ -221,13 +221,7 @@ impl SpatialQuery for SphereBvh {
             return;
         }
         let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-        stack.push((
-            0,
-            ViewMasks {
-                inside: 0,
-                crossing: views,
-            },
-        ));
+        stack.push((0, ViewMasks::undecided(views)));
         while let Some((n, above)) = stack.pop() {
             let c = if above.crossing == 0 {
                 // Every view decided an ancestor: nothing left to ask.

@@ -27,6 +27,15 @@ pub struct ViewMasks {
 }
 
 impl ViewMasks {
+    /// The masks a walk starts from at the root: no view decided, all of `views` to ask.
+    #[inline]
+    pub fn undecided(views: u32) -> Self {
+        Self {
+            inside: 0,
+            crossing: views,
+        }
+    }
+
     /// The masks of a node whose bounds classify as `c` against the views still undecided
     /// above it, given its parent's masks (`self`: the views holding the parent wholly, and
     /// those crossing it, which are the ones asked about). `None` when no view reaches the
@@ -100,13 +109,7 @@ where
     }
     // Each entry carries its parent's masks: the views holding it whole, and those to ask.
     let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-    stack.push((
-        root,
-        ViewMasks {
-            inside: 0,
-            crossing: views,
-        },
-    ));
+    stack.push((root, ViewMasks::undecided(views)));
     while let Some((node, above)) = stack.pop() {
         let c = classify(&tree.node_bounds(node), above.crossing);
         let Some(masks) = above.below(c) else {

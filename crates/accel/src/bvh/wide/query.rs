@@ -147,13 +147,7 @@ impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
         }
         // As the binary walk (`query::views`), per slot: each entry carries its node's masks.
         let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-        stack.push((
-            0,
-            ViewMasks {
-                inside: 0,
-                crossing: views,
-            },
-        ));
+        stack.push((0, ViewMasks::undecided(views)));
         while let Some((n, above)) = stack.pop() {
             let node = &self.nodes[n as usize];
             for slot in (0..N).filter(|&s| node.is_used(s)) {
