@@ -105,6 +105,7 @@ pub(super) fn walk_lists(
 /// A light view's lists as the walk classifies boxes: the light's range (point and spot
 /// lights) and one frustum per list.
 pub(super) struct LightLists<'a> {
+    /// The light's range (point and spot lights; `None` for cascades).
     pub(super) sphere: Option<&'a Sphere>,
     /// Each list's frustum, as the trees test it ([`super::light_walks::light_planes`]).
     pub(super) planes: &'a [[Vec4; 6]],
