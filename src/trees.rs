@@ -178,11 +178,13 @@ impl AccelTrees {
     }
 
     /// The slot and tree of a tracked entity.
+    #[inline]
     pub fn location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
         self.tracked(entity).map(|t| (t.slot, t.tree))
     }
 
     /// True when the entity is in a tree.
+    #[inline]
     pub fn contains(&self, entity: Entity) -> bool {
         self.tracked(entity).is_some()
     }

@@ -31,9 +31,13 @@ use std::collections::HashMap;
 /// caster by caster.
 pub(super) const MAX_SETTLED_LISTS: usize = 8;
 
-/// Per entity index, the lists (bit i = list i) whose tree walk held the entity's tree box
-/// wholly (low byte) and those whose boundary crossed its leaf (high byte). Zero: no list
-/// reached it.
+/// Per tree slot, the lists (bit i = list i) whose tree walk held the slot's tree box wholly
+/// (low byte) and those whose boundary crossed its leaf (high byte). Zero: no list reached it.
+///
+/// Why by slot, not by entity: the walk emits slots in tree order, which is random in the
+/// entity index, and an entity lookup per slot (one random read each, a million per walk of
+/// a far-reaching light) cost more than the masks themselves; the flat loop meets entities
+/// in table order and reads their slot anyway, to know whether the trees hold them.
 #[derive(Default)]
 pub(super) struct ListMasks(Vec<u16>);
 
@@ -42,23 +46,19 @@ impl ListMasks {
         self.0.fill(0);
     }
 
-    fn set(&mut self, entity: Entity, masks: ViewMasks) {
-        let i = entity.index_u32() as usize;
+    #[inline]
+    fn set(&mut self, slot: u32, masks: ViewMasks) {
+        let i = slot as usize;
         if self.0.len() <= i {
             self.0.resize(i + 1, 0);
         }
         self.0[i] = pack(masks);
     }
 
-    /// `(inside, crossing)` for `entity`.
+    /// `(inside, crossing)` for `slot`.
     #[inline]
-    fn get(&self, entity: Entity) -> (u32, u32) {
-        unpack(
-            self.0
-                .get(entity.index_u32() as usize)
-                .copied()
-                .unwrap_or(0),
-        )
+    fn get(&self, slot: u32) -> (u32, u32) {
+        unpack(self.0.get(slot as usize).copied().unwrap_or(0))
     }
 }
 
@@ -225,9 +225,7 @@ impl LightVerdicts {
         kept.masks.clear();
         let masks = &mut kept.masks;
         walk_lists(trees, lists, &mut self.walk_frusta, |slot, m| {
-            if let Some(entity) = trees.entity(slot) {
-                masks.set(entity, m);
-            }
+            masks.set(slot, m)
         });
         false
     }
@@ -255,7 +253,11 @@ impl CasterVerdicts<'_> {
     /// tests (a caster with no `Aabb` is placed everywhere too).
     #[inline]
     pub(super) fn lists(&self, entity: Entity, nfc: bool, has_bounds: bool) -> Option<(u32, u32)> {
-        (has_bounds && !nfc && self.trees.contains(entity)).then(|| self.masks.get(entity))
+        if !has_bounds || nfc {
+            return None;
+        }
+        let (slot, _) = self.trees.location(entity)?;
+        Some(self.masks.get(slot))
     }
 }
 
