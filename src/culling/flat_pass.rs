@@ -79,9 +79,10 @@ impl TreeVerdicts<'_> {
     /// subtree fully in view, no if tracked and in no leaf the walk reached.
     #[inline]
     fn frustum_test(&self, entity: Entity) -> Option<bool> {
-        if self.walk.inside_bits.contains(entity) {
+        let (slot, _) = self.trees.location(entity)?;
+        if self.walk.inside_bits.contains(slot) {
             Some(true)
-        } else if self.walk.crossing_bits.contains(entity) || !self.trees.contains(entity) {
+        } else if self.walk.crossing_bits.contains(slot) {
             None
         } else {
             Some(false)

@@ -197,13 +197,9 @@ pub(crate) fn cull_views_with_trees(
                     walk_frustum_for_bevy(
                         &trees,
                         &AccelFrustum::from_planes(planes),
-                        |slot, containment| {
-                            if let Some(entity) = trees.entity(slot) {
-                                match containment {
-                                    Containment::Inside => walk.inside_bits.insert(entity),
-                                    _ => walk.crossing_bits.insert(entity),
-                                }
-                            }
+                        |slot, containment| match containment {
+                            Containment::Inside => walk.inside_bits.insert(slot),
+                            _ => walk.crossing_bits.insert(slot),
                         },
                     );
                 }

@@ -21,10 +21,10 @@ pub(crate) struct ViewWalk {
     pub(crate) inside: Vec<Entity>,
     /// Entities whose leaf crosses a plane, in slot order ([`WalkForm::Lists`]).
     pub(crate) crossing: Vec<Entity>,
-    /// Entities a tree proved inside ([`WalkForm::Bits`]).
-    pub(crate) inside_bits: EntityBits,
-    /// Entities whose leaf crosses a plane ([`WalkForm::Bits`]).
-    pub(crate) crossing_bits: EntityBits,
+    /// Tree slots a tree proved inside ([`WalkForm::Bits`]).
+    pub(crate) inside_bits: SlotBits,
+    /// Tree slots whose leaf crosses a plane ([`WalkForm::Bits`]).
+    pub(crate) crossing_bits: SlotBits,
 }
 
 /// How a walk's finds are kept: as lists for the tree path, which decides exactly those
@@ -65,40 +65,42 @@ impl ViewWalk {
     }
 }
 
-/// A set of entities, one bit per entity index. Within a frame an index names one live
-/// entity, and a walk is kept only while the trees (and so their entities) do not change.
+/// A set of tree slots, one bit each. Why slots, not entities: the walk emits slots in tree
+/// order, random in the entity index, and an entity lookup per slot cost a random read each
+/// (a million per walk of a view over 1M entities); the flat pass meets entities in table
+/// order and reads their slot anyway, to know whether the trees hold them. A walk is kept
+/// only while the trees do not change, and with them the slots.
 #[derive(Default)]
-pub(crate) struct EntityBits(Vec<u64>);
+pub(crate) struct SlotBits(Vec<u64>);
 
-impl EntityBits {
+impl SlotBits {
     /// Empties the set, keeping its memory.
     pub(crate) fn clear(&mut self) {
         self.0.fill(0);
     }
 
-    /// Adds `entity`.
+    /// Adds `slot`.
     #[inline]
-    pub(crate) fn insert(&mut self, entity: Entity) {
-        let i = entity.index_u32() as usize;
+    pub(crate) fn insert(&mut self, slot: u32) {
+        let i = slot as usize;
         if self.0.len() <= i / 64 {
             self.0.resize(i / 64 + 1, 0);
         }
         self.0[i / 64] |= 1 << (i % 64);
     }
 
-    /// Whether `entity` (by its index) is in the set.
+    /// Whether `slot` is in the set.
     #[inline]
-    pub(crate) fn contains(&self, entity: Entity) -> bool {
-        let i = entity.index_u32() as usize;
+    pub(crate) fn contains(&self, slot: u32) -> bool {
+        let i = slot as usize;
         self.0.get(i / 64).is_some_and(|w| w >> (i % 64) & 1 != 0)
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{EntityBits, ViewWalk, WalkForm};
+    use super::{SlotBits, ViewWalk, WalkForm};
     use bevy::math::Vec4;
-    use bevy::prelude::Entity;
 
     #[test]
     fn matches_only_the_same_planes_and_form_until_forgotten() {
@@ -120,20 +122,16 @@ mod tests {
     }
 
     #[test]
-    fn entity_bits_hold_exactly_what_was_inserted_until_cleared() {
-        let mut bits = EntityBits::default();
+    fn slot_bits_hold_exactly_what_was_inserted_until_cleared() {
+        let mut bits = SlotBits::default();
         let ids = [0u32, 1, 63, 64, 65, 1000, 123_456];
         for &i in &ids {
-            bits.insert(Entity::from_raw_u32(i).unwrap());
+            bits.insert(i);
         }
         for i in 0..130_000u32 {
-            let e = Entity::from_raw_u32(i).unwrap();
-            assert_eq!(bits.contains(e), ids.contains(&i), "index {i}");
+            assert_eq!(bits.contains(i), ids.contains(&i), "slot {i}");
         }
         bits.clear();
-        assert!(
-            ids.iter()
-                .all(|&i| !bits.contains(Entity::from_raw_u32(i).unwrap()))
-        );
+        assert!(ids.iter().all(|&i| !bits.contains(i)));
     }
 }
