@@ -10,7 +10,7 @@
 //!
 //! Both light passes use it. The tree path keeps the masks with each candidate the walk
 //! found ([`super::light_walks::LightCandidates`]); a view decided by the flat loop over every
-//! caster (it reaches most of the world) keeps them per entity index ([`LightVerdicts`]), and a
+//! caster (it reaches most of the world) keeps them per tree slot ([`LightVerdicts`]), and a
 //! caster no list reached is then dropped after one read, as in the camera flat pass
 //! ([`super::flat_pass::TreeVerdicts`]).
 
