@@ -21,7 +21,7 @@ use crate::trees::AccelTrees;
 use accel::SpatialQuery;
 use accel::query::views::{ViewClassification, ViewMasks};
 use accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
-use bevy::camera::primitives::{Aabb, Frustum, Sphere};
+use bevy::camera::primitives::{Aabb, Sphere};
 use bevy::math::Vec4;
 use bevy::prelude::*;
 use std::collections::HashMap;
@@ -83,21 +83,17 @@ pub(super) fn walk_lists(
     walk_frusta: &mut Vec<AccelFrustum>,
     visit: impl FnMut(u32, ViewMasks),
 ) {
-    debug_assert!(lists.planes.len() <= 32 && lists.planes.len() == lists.frusta.len());
+    debug_assert!(lists.planes.len() <= 32);
     // Built once per walk: a frustum normalises its planes.
     walk_frusta.clear();
     walk_frusta.extend(lists.planes.iter().map(|p| AccelFrustum::from_planes(*p)));
-    let all = u32::MAX >> (32 - lists.planes.len().clamp(1, 32));
-    let accepting = lists
-        .frusta
-        .iter()
-        .enumerate()
-        .filter(|(_, f)| f.half_spaces.iter().all(|h| h.normal_d().is_finite()))
-        .fold(0, |acc, (i, _)| acc | 1 << i);
-    let sphere = lists.sphere;
+    let all = match lists.planes.len() {
+        0 => 0,
+        n => u32::MAX >> (32 - n),
+    };
     trees.query().for_each_in_views(
-        if lists.planes.is_empty() { 0 } else { all },
-        |b, undecided| classify_for_lists(sphere, walk_frusta, b, undecided, accepting),
+        all,
+        |b, undecided| classify_for_lists(lists, walk_frusta, b, undecided),
         visit,
     );
 }
@@ -107,43 +103,40 @@ pub(super) fn walk_lists(
 pub(super) struct LightLists<'a> {
     /// The light's range (point and spot lights; `None` for cascades).
     pub(super) sphere: Option<&'a Sphere>,
-    /// Each list's frustum, as the trees test it ([`super::light_walks::light_planes`]).
+    /// Each list's frustum, as the trees test it ([`super::light_walks::light_planes`]: a
+    /// half-space Bevy's test cannot reject by holds all space, so a box inside every plane
+    /// passes Bevy's test).
     pub(super) planes: &'a [[Vec4; 6]],
-    /// Each list's frustum as Bevy has it: a list whose half-spaces are not all finite is
-    /// never taken as holding a box (Bevy's test on it can go either way).
-    pub(super) frusta: &'a [Frustum],
+    /// The lists together cover every direction around the light (a point light's cube
+    /// faces), so where the range is undecided they prune nothing (see
+    /// [`classify_for_lists`]).
+    pub(super) cover_every_direction: bool,
 }
 
-/// How the tree box `b` stands with the lists of `undecided` (`walk_frusta`: the lists'
-/// frusta, within `sphere`'s range when there is one; only lists in `accepting` may hold a
-/// box). The box is grown past rounding first, as for camera walks (see `bevy_rounding`).
+/// How the tree box `b` stands with the lists of `undecided` (`walk_frusta`: the frusta of
+/// `lists`, within its range when it has one). The box is grown past rounding first, as for
+/// camera walks (see `bevy_rounding`).
 fn classify_for_lists(
-    sphere: Option<&Sphere>,
+    lists: &LightLists,
     walk_frusta: &[AccelFrustum],
     b: &AccelAabb,
     undecided: u32,
-    accepting: u32,
 ) -> ViewClassification {
     let mut c = ViewClassification::default();
-    let in_range = match sphere {
-        Some(sphere) => {
-            if !light_sphere_may_reach(sphere, b) {
-                c.outside = undecided;
-                return c;
-            }
-            true
-        }
-        None => true,
-    };
+    if let Some(sphere) = lists.sphere
+        && !light_sphere_may_reach(sphere, b)
+    {
+        c.outside = undecided;
+        return c;
+    }
     let grown = grown_past_rounding(b);
-    let in_range = in_range && sphere.is_none_or(|s| surely_within_range(s, &grown));
-    if !in_range && walk_frusta.len() > 1 {
-        // Across the range's boundary a cube's six faces prune no subtree (together they
-        // cover every direction) and cannot hold a box (that needs the range), yet classifying
-        // them costs six frustum tests per node: moving point lights measured up to twice as
-        // slow with it. They are classified once in range; boxes that never get there keep
-        // every face undecided and get Bevy's full tests. (A spot light's one frustum does
-        // prune, so it is classified everywhere.)
+    let in_range = lists.sphere.is_none_or(|s| surely_within_range(s, &grown));
+    if !in_range && lists.cover_every_direction {
+        // Across the range's boundary a cube's six faces prune no subtree and cannot hold a
+        // box (that needs the range), yet classifying them costs six frustum tests per node:
+        // moving point lights measured up to twice as slow with it. They are classified once
+        // in range; boxes that never get there keep every face undecided and get Bevy's full
+        // tests. (A spot light's frustum does prune, so it is classified everywhere.)
         return c;
     }
     let mut todo = undecided;
@@ -153,8 +146,8 @@ fn classify_for_lists(
         let bit = 1 << i;
         match walk_frusta[i].classify_aabb(&grown) {
             Containment::Outside => c.outside |= bit,
-            Containment::Inside if in_range && accepting & bit != 0 => c.inside |= bit,
-            _ => {}
+            Containment::Inside if in_range => c.inside |= bit,
+            Containment::Inside | Containment::Intersecting => {}
         }
     }
     c

@@ -306,7 +306,7 @@ pub(crate) fn cull_point_and_spot_lights(
                 let walked = LightLists {
                     sphere: Some(&sphere),
                     planes: &face_planes,
-                    frusta: &frusta.frusta,
+                    cover_every_direction: true,
                 };
                 let view = (light, light);
                 candidates.gather(view, &walked, &trees, &untracked);
@@ -356,7 +356,7 @@ pub(crate) fn cull_point_and_spot_lights(
                 let walked = LightLists {
                     sphere: Some(&sphere),
                     planes: &spot_planes,
-                    frusta: core::slice::from_ref(frustum),
+                    cover_every_direction: false,
                 };
                 let view = (light, light);
                 candidates.gather(view, &walked, &trees, &untracked);
@@ -440,7 +440,7 @@ pub(crate) fn cull_directional_lights(
             let walked = LightLists {
                 sphere: None,
                 planes: cascade_planes,
-                frusta: view_frusta,
+                cover_every_direction: false,
             };
             let key = (light_entity, *view);
             candidates.gather(key, &walked, &trees, &untracked);
