@@ -93,8 +93,6 @@ fn bench(c: &mut Criterion) {
         })
     });
     // The steady state's split, for the record: the first frame above moved every entity out
-    // of its fat box, later frames let motion prediction keep some inside.
-    // The steady state's split, for the record: the first frame above moved every entity out
     // of its fat box, later frames let motion prediction keep some inside. The optimiser's
     // share of the maintenance is its per-frame budget (`AccelSettings`), not refit work.
     let (mut sync, mut maintain, mut optimize, mut updated) =
