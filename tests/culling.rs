@@ -300,3 +300,95 @@ fn check_camera_paths(variant: Variant) {
         "whole subtrees must be accepted without per-entity tests"
     );
 }
+
+/// A view that proves tens of thousands of entities inside (enough to decide them in parts on
+/// the compute task pool) still gives Bevy's visible set and `ViewVisibility`, with hidden
+/// entities, other render layers and visibility toggles among the ones inside.
+#[test]
+fn many_entities_inside_decided_in_parts_equal_bevys() {
+    const SIDE: usize = 40;
+    let mut class = VisibilityClass::default();
+    class.push(TypeId::of::<Drawable>());
+    let grid = |app: &mut App| -> Vec<Entity> {
+        let world = app.world_mut();
+        let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
+        (0..SIDE * SIDE * SIDE)
+            .map(|i| {
+                let p = Vec3::new(
+                    (i % SIDE) as f32,
+                    (i / SIDE % SIDE) as f32,
+                    (i / SIDE / SIDE) as f32,
+                ) * 2.0;
+                let mut e = world.spawn((
+                    Transform::from_translation(p),
+                    Visibility::Inherited,
+                    class.clone(),
+                    Drawable,
+                    Aabb::from_min_max(Vec3::splat(-0.4), Vec3::splat(0.4)),
+                ));
+                match i % 13 {
+                    0 => {
+                        e.insert(ChildOf(hidden_parent));
+                    }
+                    1 => {
+                        e.insert(RenderLayers::layer(2));
+                    }
+                    2 => {
+                        e.insert(AccelStatic);
+                    }
+                    _ => {}
+                }
+                e.id()
+            })
+            .collect()
+    };
+    let (mut bevy_app, mut accel_app) = (app(false), app(true));
+    let a = grid(&mut bevy_app);
+    let b = grid(&mut accel_app);
+    // An orthographic view down -z over the whole grid in y and its first 15% in x: about
+    // 9,600 of the 64,000 entities, every one of them inside a subtree the walk accepts whole.
+    let extent = SIDE as f32 * 2.0;
+    let eye = Vec3::new(0.0, 0.0, extent + 10.0);
+    let view = Mat4::look_at_rh(eye, eye - Vec3::Z, Vec3::Y);
+    let proj = Mat4::orthographic_rh(-1.0, extent * 0.15, -1.0, extent + 1.0, 0.1, extent * 3.0);
+    let frustum = Frustum(ViewFrustum::from_clip_from_world(&(proj * view)));
+    for app in [&mut bevy_app, &mut accel_app] {
+        app.world_mut().spawn((
+            Camera::default(),
+            ViewIndex(0),
+            frustum,
+            Transform::from_translation(eye),
+        ));
+    }
+    let mut in_parts = 0;
+    for frame in 0..6 {
+        for (app, entities) in [(&mut bevy_app, &a), (&mut accel_app, &b)] {
+            for (i, &e) in entities.iter().enumerate() {
+                if (i + frame) % 17 == 0 {
+                    app.world_mut().entity_mut(e).insert(if frame % 2 == 0 {
+                        Visibility::Hidden
+                    } else {
+                        Visibility::Inherited
+                    });
+                }
+            }
+            app.update();
+        }
+        let (bevy_lists, bevy_flags) = visible_sets(&mut bevy_app, &a);
+        let (accel_lists, accel_flags) = visible_sets(&mut accel_app, &b);
+        assert!(
+            bevy_lists[0].len() > 6_000,
+            "{} visible",
+            bevy_lists[0].len()
+        );
+        assert_eq!(bevy_lists, accel_lists, "frame {frame}");
+        assert_eq!(bevy_flags, accel_flags, "frame {frame}");
+        let stats = accel_app.world().resource::<CullingStats>();
+        assert_eq!(
+            stats.flat_views, 0,
+            "frame {frame}: the view stays on the tree path"
+        );
+        in_parts += stats.views_decided_in_parts;
+    }
+    assert!(in_parts >= 5, "decided in parts in {in_parts} of 6 frames");
+}

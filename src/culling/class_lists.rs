@@ -21,6 +21,16 @@ impl ClassLists {
         }
     }
 
+    /// Appends `other`'s lists after this one's, class by class, emptying `other`.
+    pub(crate) fn append_from(&mut self, other: &mut ClassLists) {
+        for (class, list) in &mut other.0 {
+            match self.0.iter_mut().find(|(c, _)| c == class) {
+                Some((_, mine)) => mine.append(list),
+                None => self.0.push((*class, core::mem::take(list))),
+            }
+        }
+    }
+
     /// Moves the lists into the view's `VisibleEntities`, keeping their allocations here.
     pub(crate) fn flush_into(&mut self, visible_entities: &mut VisibleEntities) {
         for (class, list) in &mut self.0 {

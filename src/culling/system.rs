@@ -3,6 +3,7 @@
 use super::bevy_rounding::walk_frustum_for_bevy;
 use super::class_lists::ClassLists;
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
+use super::inside_parallel::decide_inside_in_parts;
 use super::slot_order::FoundSlots;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
 use super::untracked::UntrackedEntities;
@@ -43,6 +44,9 @@ pub struct CullingStats {
     /// Views whose tree walk was reused from the last frame, because neither their frustum
     /// nor the trees had changed (the entities found are still decided one by one).
     pub reused_walks: usize,
+    /// Views on the tree path whose entities proved inside were many enough to be decided in
+    /// parts on the compute task pool.
+    pub views_decided_in_parts: usize,
     /// Time spent in the camera culling system.
     pub time: Duration,
     /// Shadow views of lights culled on the trees (point light cube faces, spot light
@@ -160,6 +164,7 @@ pub(crate) fn cull_views_with_trees(
     mut found: Local<FoundSlots>,
     mut walks: Local<EntityHashMap<ViewWalk>>,
     mut class_lists: Local<ClassLists>,
+    mut part_lists: Local<Vec<ClassLists>>,
     entities: &Entities,
     bounds: Query<BoundsItem, Without<NoCpuCulling>>,
 ) {
@@ -273,17 +278,30 @@ pub(crate) fn cull_views_with_trees(
                 found.drain_entities(trees.slot_entities(), &mut walk.inside, &mut walk.crossing);
             }
             let (inside, crossing) = (&walk.inside, &walk.crossing);
-            // Each batch's rows are requested while the batch before it is decided, so the
-            // prefetches have a batch's worth of work to arrive in.
-            let mut batches = inside.chunks(TOUCH_BATCH).peekable();
-            if let Some(first) = batches.peek() {
-                pass.touch_rows(first, entities);
-            }
-            while let Some(batch) = batches.next() {
-                if let Some(next) = batches.peek() {
-                    pass.touch_rows(next, entities);
+            if let Some(visible) = decide_inside_in_parts(
+                pass.deciding,
+                pass.filter,
+                inside,
+                entities,
+                pass.lists,
+                &mut part_lists,
+            ) {
+                pass.stats.accepted_by_subtree += visible;
+                pass.stats.visible += visible;
+                pass.stats.views_decided_in_parts += 1;
+            } else {
+                // Each batch's rows are requested while the batch before it is decided, so
+                // the prefetches have a batch's worth of work to arrive in.
+                let mut batches = inside.chunks(TOUCH_BATCH).peekable();
+                if let Some(first) = batches.peek() {
+                    pass.touch_rows(first, entities);
                 }
-                pass.decide_inside(batch);
+                while let Some(batch) = batches.next() {
+                    if let Some(next) = batches.peek() {
+                        pass.touch_rows(next, entities);
+                    }
+                    pass.decide_inside(batch);
+                }
             }
             for batch in crossing.chunks(TOUCH_BATCH) {
                 pass.touch_rows(batch, entities);
