@@ -25,7 +25,7 @@ const MIN_PART: usize = 2_048;
 /// Why: the decisions wait on memory (a location record, then rows, for each entity), and
 /// how many misses a core keeps in flight is bounded by its fill buffers; two cores keep
 /// twice as many, as Bevy's own culling loop uses the pool. At 1M entities with 5% in view
-/// this took the still view from 3.5-4.2 ms to 2.5-2.6 ms on a 2-core machine (BENCHMARKS.md).
+/// this took the still view from 3.4-4.0 ms to 1.9-2.6 ms on a 2-core machine (BENCHMARKS.md).
 ///
 /// `part_lists` holds one list set per part between calls, so that their memory is reused.
 pub(crate) fn decide_inside_in_parts(
