@@ -2,8 +2,7 @@
 
 use super::class_lists::ClassLists;
 use super::system::ViewFilter;
-use super::tree_pass::{DecideFilter, DecideItem, TOUCH_BATCH};
-use crate::prefetch::prefetch;
+use super::tree_pass::{DecideFilter, DecideItem, TOUCH_BATCH, touch_rows};
 use bevy::camera::visibility::SetViewVisibility;
 use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
@@ -70,20 +69,7 @@ fn decide_part(
     lists: &mut ClassLists,
 ) -> usize {
     let mut visible = 0;
-    let touch = |batch: &[Entity]| {
-        for &entity in batch {
-            core::hint::black_box(entities.get(entity).ok().flatten());
-        }
-        for &entity in batch {
-            if let Ok((_, inherited, view_visibility, class, _, _)) = query.get(entity) {
-                prefetch(inherited);
-                prefetch(view_visibility);
-                if let Some(class) = class {
-                    prefetch(class);
-                }
-            }
-        }
-    };
+    let touch = |batch: &[Entity]| touch_rows(query, batch, entities);
     let mut batches = part.chunks(TOUCH_BATCH).peekable();
     if let Some(first) = batches.peek() {
         touch(first);
