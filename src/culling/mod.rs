@@ -7,7 +7,9 @@
 //! on entities whose leaf straddles a plane, so its results are Bevy's. A view that sees most
 //! of the world goes through every entity in table order instead, as Bevy's loop does (a
 //! lookup per tree hit would cost more there), still taking the trees' word wherever a leaf is
-//! wholly in or out of view.
+//! wholly in or out of view. Both spread their per-entity work over Bevy's compute task pool
+//! when it is large (the flat pass always, the tree path from 8,192 entities proved inside),
+//! as Bevy's own loop does.
 
 mod bevy_rounding;
 mod class_lists;
