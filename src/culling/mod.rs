@@ -14,7 +14,7 @@
 mod bevy_rounding;
 mod class_lists;
 mod flat_pass;
-mod inside_parallel;
+mod inside_pass;
 #[cfg(feature = "light_culling")]
 mod light_verdicts;
 #[cfg(feature = "light_culling")]

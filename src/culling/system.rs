@@ -3,7 +3,7 @@
 use super::bevy_rounding::walk_frustum_for_bevy;
 use super::class_lists::ClassLists;
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
-use super::inside_parallel::decide_inside_in_parts;
+use super::inside_pass::decide_inside;
 use super::slot_order::FoundSlots;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
 use super::untracked::UntrackedEntities;
@@ -278,31 +278,17 @@ pub(crate) fn cull_views_with_trees(
                 found.drain_entities(trees.slot_entities(), &mut walk.inside, &mut walk.crossing);
             }
             let (inside, crossing) = (&walk.inside, &walk.crossing);
-            if let Some(visible) = decide_inside_in_parts(
+            let (visible, in_parts) = decide_inside(
                 pass.deciding,
                 pass.filter,
                 inside,
                 entities,
                 pass.lists,
                 &mut part_lists,
-            ) {
-                pass.stats.accepted_by_subtree += visible;
-                pass.stats.visible += visible;
-                pass.stats.views_decided_in_parts += 1;
-            } else {
-                // Each batch's rows are requested while the batch before it is decided, so
-                // the prefetches have a batch's worth of work to arrive in.
-                let mut batches = inside.chunks(TOUCH_BATCH).peekable();
-                if let Some(first) = batches.peek() {
-                    pass.touch_rows(first, entities);
-                }
-                while let Some(batch) = batches.next() {
-                    if let Some(next) = batches.peek() {
-                        pass.touch_rows(next, entities);
-                    }
-                    pass.decide_inside(batch);
-                }
-            }
+            );
+            pass.stats.accepted_by_subtree += visible;
+            pass.stats.visible += visible;
+            pass.stats.views_decided_in_parts += usize::from(in_parts);
             for batch in crossing.chunks(TOUCH_BATCH) {
                 pass.touch_rows(batch, entities);
                 for &entity in batch {

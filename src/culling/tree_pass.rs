@@ -85,25 +85,6 @@ impl ViewPass<'_, '_, '_> {
         touch_rows(self.deciding, batch, entities);
     }
 
-    /// Decides entities a tree proved inside the frustum: no frustum test. One query iterator
-    /// over the batch sets up the fetch once, where a `get` per entity sets it up each time.
-    pub(crate) fn decide_inside(&mut self, batch: &[Entity]) {
-        let mut iter = self.deciding.iter_many_mut(batch);
-        while let Some((entity, inherited, mut view_visibility, class, layers, has_range)) =
-            iter.fetch_next()
-        {
-            if !self.filter.admits(entity, inherited, layers, has_range) {
-                continue;
-            }
-            self.stats.accepted_by_subtree += 1;
-            self.stats.visible += 1;
-            view_visibility.set_visible();
-            if let Some(class) = class {
-                self.lists.push(class, entity);
-            }
-        }
-    }
-
     /// Decides one entity as Bevy's `check_visibility_cpu_culling` does, frustum test
     /// included.
     pub(crate) fn decide_exact(&mut self, entity: Entity) {
