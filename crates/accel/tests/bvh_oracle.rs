@@ -61,6 +61,7 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     let bvh = Bvh::build(boxes, cfg);
     bvh.validate(boxes)
         .unwrap_or_else(|e| panic!("{cfg:?}: {e}"));
+    check_subtree_ranges(&bvh);
     check_queries(&bvh, boxes, seed, n_queries);
     let bvh4 = Bvh4::from_bvh(&bvh);
     bvh4.validate(boxes)
@@ -80,6 +81,30 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         check_queries(&qbvh8, boxes, seed, n_queries);
     }
     check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
+}
+
+/// The span table gives every node the primitives found by walking down its subtree.
+fn check_subtree_ranges(bvh: &Bvh) {
+    let ranges = bvh.subtree_ranges();
+    assert_eq!(ranges.len(), bvh.nodes().len());
+    for (node, &[first, end]) in ranges.iter().enumerate() {
+        let mut below = Vec::new();
+        let mut stack = vec![node];
+        while let Some(n) = stack.pop() {
+            let n = &bvh.nodes()[n];
+            if n.is_leaf() {
+                below.extend_from_slice(
+                    &bvh.primitive_indices()[n.first as usize..(n.first + n.count) as usize],
+                );
+            } else {
+                stack.extend([n.first as usize, n.first as usize + 1]);
+            }
+        }
+        let mut span = bvh.primitive_indices()[first as usize..end as usize].to_vec();
+        span.sort_unstable();
+        below.sort_unstable();
+        assert_eq!(span, below, "node {node}");
+    }
 }
 
 fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: usize) {

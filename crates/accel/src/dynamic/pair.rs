@@ -56,6 +56,9 @@ pub struct StaticDynamicPair {
     static_tree: Bvh,
     /// The static tree collapsed to 8-wide nodes, for rays (same primitive ids).
     static_wide: Bvh8,
+    /// [`Bvh::subtree_ranges`] of the static tree: a frustum walk emits each subtree it
+    /// proves inside with one read instead of two walks down the subtree's edges.
+    static_ranges: Vec<[u32; 2]>,
     dynamic: DynamicBvh,
     /// The dynamic tree collapsed to 8-wide nodes, for rays, while it holds still. Dropped by
     /// [`Self::dynamic_mut`], the only way to change the dynamic tree, so it never outlives
@@ -68,6 +71,7 @@ impl StaticDynamicPair {
     pub fn new(static_tree: Bvh, dynamic: DynamicBvh) -> Self {
         Self {
             static_wide: Bvh8::from_bvh(&static_tree),
+            static_ranges: static_tree.subtree_ranges(),
             static_tree,
             dynamic,
             dynamic_rays: RaySnapshot::default(),
@@ -83,6 +87,7 @@ impl StaticDynamicPair {
     /// Replaces the static tree, returning the old one.
     pub fn set_static(&mut self, static_tree: Bvh) -> Bvh {
         self.static_wide = Bvh8::from_bvh(&static_tree);
+        self.static_ranges = static_tree.subtree_ranges();
         core::mem::replace(&mut self.static_tree, static_tree)
     }
 
@@ -220,8 +225,15 @@ impl BoundingTree for StaticDynamicPair {
 
     #[inline]
     fn prefetch_node(&self, node: u32) {
-        // Static nodes lie in build order, children next to their parent: no hint needed.
-        if node & STATIC_TAG == 0 {
+        if node == VIRTUAL_ROOT {
+        } else if node & STATIC_TAG != 0 {
+            let i = node & !STATIC_TAG;
+            self.static_tree.prefetch_node(i);
+            // A walk that finds the node inside the view reads its span next.
+            if let Some(range) = self.static_ranges.get(i as usize) {
+                crate::prefetch::prefetch_node(range);
+            }
+        } else {
             self.dynamic.prefetch_node(node);
         }
     }
@@ -239,9 +251,13 @@ impl BoundingTree for StaticDynamicPair {
 
     #[inline]
     fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
-        (node != VIRTUAL_ROOT && node & STATIC_TAG != 0)
-            .then(|| self.static_tree.subtree_primitives(node & !STATIC_TAG))
-            .flatten()
+        if node == VIRTUAL_ROOT || node & STATIC_TAG == 0 {
+            return None;
+        }
+        let [first, end] = *self.static_ranges.get((node & !STATIC_TAG) as usize)?;
+        self.static_tree
+            .primitive_indices()
+            .get(first as usize..end as usize)
     }
 }
 

@@ -10,8 +10,8 @@
 //! applied to whole views), and a subtree leaves the walk as soon as every view has decided
 //! it.
 
+use super::BoundingTree;
 use super::binary::{SubtreeExt, for_each_leaf_primitive};
-use super::{BoundingTree, TraversalStack};
 use crate::Aabb;
 use core::ops::ControlFlow;
 
@@ -107,10 +107,26 @@ where
     if views == 0 {
         return;
     }
-    // Each entry carries its parent's masks: the views holding it whole, and those to ask.
-    let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-    stack.push((root, ViewMasks::undecided(views)));
-    while let Some((node, above)) = stack.pop() {
+    // A queue, not a stack: the order primitives come out in is not promised, and in a
+    // queue the node read `PREFETCH_AHEAD` steps from now is already known, so its fetch
+    // starts that many steps early. A depth-first walk reads each node right after pushing
+    // it, and in a tree larger than the cache it waited one memory latency per node (13k
+    // node visits took about 1 ms at 1M entities, 5% in view). Each entry carries its
+    // parent's masks: the views holding it whole, and those to ask.
+    let mut queue: Vec<(u32, ViewMasks)> = Vec::with_capacity(256);
+    queue.push((root, ViewMasks::undecided(views)));
+    let mut next = 0;
+    while let Some(&(node, above)) = queue.get(next) {
+        next += 1;
+        if let Some(&(ahead, _)) = queue.get(next + PREFETCH_AHEAD) {
+            tree.prefetch_node(ahead);
+        }
+        // Keep only the unread part once the read part is the larger: the queue's memory
+        // follows the walk's frontier, not the number of nodes visited.
+        if next >= 1024 && 2 * next >= queue.len() {
+            queue.drain(..next);
+            next = 0;
+        }
         let c = classify(&tree.node_bounds(node), above.crossing);
         let Some(masks) = above.below(c) else {
             continue;
@@ -133,10 +149,14 @@ where
         }
         match tree.node_children(node) {
             Some([a, b]) => {
-                tree.prefetch_node(b);
-                tree.prefetch_node(a);
-                stack.push((b, masks));
-                stack.push((a, masks));
+                // Near the front of the queue, the children are read before the look-ahead
+                // above reaches them.
+                if queue.len() - next < PREFETCH_AHEAD {
+                    tree.prefetch_node(a);
+                    tree.prefetch_node(b);
+                }
+                queue.push((a, masks));
+                queue.push((b, masks));
             }
             None => {
                 for &p in tree.leaf_primitives(node) {
@@ -146,3 +166,7 @@ where
         }
     }
 }
+
+/// How many queued nodes ahead of the one being read [`for_each_in_views`] prefetches: enough
+/// to cover a memory latency with the work of that many nodes.
+const PREFETCH_AHEAD: usize = 8;
