@@ -1,6 +1,11 @@
 //! The slots a view's tree walk found, handed back in slot order.
 
+use crate::prefetch::prefetch;
 use bevy::prelude::Entity;
+
+/// How many keys ahead of its lookup a slot's entry is prefetched: enough lookups to cover a
+/// memory latency.
+const LOOKUP_AHEAD: usize = 64;
 
 /// Slots found by a frustum walk, each with whether it still needs the exact test, returned in
 /// ascending slot order.
@@ -56,21 +61,33 @@ impl FoundSlots {
         slot_entities: &[Option<Entity>],
         out: &mut Vec<(Entity, u16)>,
     ) {
-        let flags = core::mem::take(&mut self.flags_by_slot);
-        for (slot, _) in self.drain_in_slot_order(slot_entities.len()) {
+        self.sort_in_slot_order(slot_entities.len());
+        for (slot, _) in Self::sorted_keys_prefetching(&self.keys, slot_entities) {
             if let Some(Some(entity)) = slot_entities.get(slot as usize) {
-                out.push((*entity, flags.get(slot as usize).copied().unwrap_or(0)));
+                out.push((
+                    *entity,
+                    self.flags_by_slot.get(slot as usize).copied().unwrap_or(0),
+                ));
             }
         }
-        self.flags_by_slot = flags;
+        self.keys.clear();
     }
 
     /// The slots found as `(slot, exact)`, in ascending slot order, then forgets them.
     /// `slot_capacity` bounds the slots pushed (one past the largest).
+    #[cfg(test)]
     fn drain_in_slot_order(
         &mut self,
         slot_capacity: usize,
     ) -> impl ExactSizeIterator<Item = (u32, bool)> + '_ {
+        self.sort_in_slot_order(slot_capacity);
+        self.keys
+            .drain(..)
+            .map(|key| ((key >> 1) as u32, key & 1 == 1))
+    }
+
+    /// Puts the keys in ascending order (see [`Self::drain_in_slot_order`]).
+    fn sort_in_slot_order(&mut self, slot_capacity: usize) {
         let key_words = (slot_capacity * 2).div_ceil(64);
         // The bitset costs a pass over `key_words` words; a sort costs ~log2(n) per key.
         // Pick whichever is fewer steps (a key larger than the capacity, which a caller
@@ -96,9 +113,26 @@ impl FoundSlots {
         } else {
             self.keys.sort_unstable();
         }
-        self.keys
-            .drain(..)
-            .map(|key| ((key >> 1) as u32, key & 1 == 1))
+    }
+
+    /// The sorted keys, each with the entry of `by_slot` for its slot prefetched
+    /// [`LOOKUP_AHEAD`] keys earlier. Why: ascending slots are still scattered through a
+    /// large world's slot arrays (a view's slab of a grid is a few slots of every row), too far
+    /// apart for the hardware prefetcher; a lookup per key waiting on memory was nearly all of
+    /// the drain's time (0.75 ms for 50k slots at 1M entities).
+    fn sorted_keys_prefetching<'a, T>(
+        keys: &'a [u64],
+        by_slot: &'a [T],
+    ) -> impl Iterator<Item = (u32, bool)> + 'a {
+        keys.iter().enumerate().map(move |(i, &key)| {
+            if let Some(entry) = keys
+                .get(i + LOOKUP_AHEAD)
+                .and_then(|&k| by_slot.get((k >> 1) as usize))
+            {
+                prefetch(entry);
+            }
+            ((key >> 1) as u32, key & 1 == 1)
+        })
     }
 
     /// The entities of the slots found, in slot order: those a tree proved inside the frustum
@@ -110,7 +144,8 @@ impl FoundSlots {
         inside: &mut Vec<Entity>,
         crossing: &mut Vec<Entity>,
     ) {
-        for (slot, exact) in self.drain_in_slot_order(slot_entities.len()) {
+        self.sort_in_slot_order(slot_entities.len());
+        for (slot, exact) in Self::sorted_keys_prefetching(&self.keys, slot_entities) {
             if let Some(Some(entity)) = slot_entities.get(slot as usize) {
                 if exact {
                     crossing.push(*entity);
@@ -119,6 +154,7 @@ impl FoundSlots {
                 }
             }
         }
+        self.keys.clear();
     }
 }
 
