@@ -7,6 +7,7 @@ use accel::{
 };
 use bevy::camera::primitives::Frustum;
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
+use bevy::ecs::entity::Entities;
 use bevy::ecs::system::SystemParam;
 use bevy::ecs::system::lifetimeless::Read;
 use bevy::math::bounding::{Aabb3d, BoundingSphere};
@@ -103,6 +104,7 @@ enum Target {
 #[derive(SystemParam)]
 pub struct AccelRayCast<'w, 's> {
     trees: Res<'w, AccelTrees>,
+    locations: &'w Entities,
     meshes: Res<'w, Assets<Mesh>>,
     cache: Res<'w, AccelMeshCache>,
     mesh_targets: Query<'w, 's, MeshTargetData, MeshFilter>,
@@ -261,6 +263,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
     ) {
         let Self {
             trees,
+            locations,
             meshes,
             cache,
             mesh_targets,
@@ -280,12 +283,16 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
             let (entity, hit) = match target {
                 Target::Meshes => {
+                    let entity = trees.entity(slot)?;
+                    // The entity's location record, asked for now and read by the lookup
+                    // below: its miss then overlaps the oriented-box test, instead of
+                    // following it (perf put a sixth of the candidate's time on that record).
+                    core::hint::black_box(locations.get(entity).ok().flatten());
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
-                    // any ECS read: a third of the candidates stop here.
+                    // any component read: a third of the candidates stop here.
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
                     local.intersect_aabb(&frame.local_bounds)?;
-                    let entity = trees.entity(slot)?;
                     let (transform, inherited, view, mesh2d, mesh3d, simplified, both) =
                         mesh_targets.get(entity).ok()?;
                     if !visible(settings.visibility, Some(inherited), Some(view))
