@@ -100,6 +100,7 @@ fn contender<'a, B: Built + 'a>(name: &str, f: impl Fn() -> B + 'a) -> Contender
 /// Our split strategies, each with the default stopping rules (leaves of up to 8 by SAH).
 fn our_strategies() -> Vec<(&'static str, SplitStrategy)> {
     vec![
+        ("accel lbvh", SplitStrategy::Lbvh),
         ("accel midpoint", SplitStrategy::Midpoint),
         ("accel median", SplitStrategy::Median),
         ("accel binned8", SplitStrategy::BinnedSah { bins: 8 }),

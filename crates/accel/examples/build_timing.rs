@@ -25,6 +25,7 @@ fn main() {
         })
         .collect();
     for split in [
+        SplitStrategy::Lbvh,
         SplitStrategy::Midpoint,
         SplitStrategy::Median,
         SplitStrategy::BinnedSah { bins: 8 },

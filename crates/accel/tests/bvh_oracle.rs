@@ -10,8 +10,9 @@ use accel::{Aabb, BuildConfig, Bvh, RayHit, SahCosts, SpatialQuery, Sphere, Spli
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, frustum_hits, random_frustum, rays, scene};
 
-const STRATEGIES: [SplitStrategy; 8] = [
+const STRATEGIES: [SplitStrategy; 9] = [
     SplitStrategy::Midpoint,
+    SplitStrategy::Lbvh,
     SplitStrategy::Median,
     SplitStrategy::BinnedSah { bins: 16 },
     SplitStrategy::BinnedSah { bins: 4 },
@@ -516,4 +517,49 @@ fn ploc_sah_is_close_to_binned_sah() {
             assert!(ratio <= 1.12, "{kind:?} {split:?}: ploc/binned = {ratio}");
         }
     }
+}
+
+/// LBVH on large scenes and odd input equals brute force; its leaves keep to
+/// `max_leaf_size` and its depth to `max_depth` (where the two clash, the depth wins, as in
+/// every top-down build); nested boxes (one grid cell for all) give a balanced tree.
+#[test]
+fn lbvh_matches_brute_force_and_honours_its_stopping_rules() {
+    let cfg = BuildConfig::with_split(SplitStrategy::Lbvh);
+    for boxes in large_scenes(277) {
+        check_scene(&boxes, &cfg, 98, 40);
+    }
+    check_invalid_and_infinite_boxes(&cfg);
+    for n in 0..3 {
+        let mut boxes = vec![Aabb::EMPTY; 4];
+        for b in boxes.iter_mut().take(n) {
+            *b = Aabb::new(glam::Vec3A::ZERO, glam::Vec3A::ONE);
+        }
+        let bvh = Bvh::build(&boxes, &cfg);
+        bvh.validate(&boxes).unwrap();
+        assert_eq!(bvh.primitive_count(), n);
+    }
+    let boxes = scene(SceneKind::Clustered, 5_000, 8);
+    for max_leaf_size in [1, 2, 4, 8, 16] {
+        let cfg = BuildConfig {
+            max_leaf_size,
+            ..cfg
+        };
+        let s = built_stats(&boxes, &cfg);
+        assert!(s.max_leaf_size <= max_leaf_size as usize, "{cfg:?}: {s:?}");
+    }
+    let shallow = BuildConfig {
+        max_depth: 4,
+        ..cfg
+    };
+    let s = built_stats(&boxes, &shallow);
+    assert!(s.max_depth <= 4, "{s:?}");
+    let nested: Vec<Aabb> = (0..100_000)
+        .map(|i| {
+            Aabb::from_center_half_extents(glam::Vec3A::ZERO, glam::Vec3A::splat(1.0 + i as f32))
+        })
+        .collect();
+    let bvh = Bvh::build(&nested, &cfg);
+    bvh.validate(&nested).unwrap();
+    let s = tree_stats(&bvh, &cfg.sah);
+    assert!(s.max_depth <= 15, "{s:?}");
 }

@@ -3,7 +3,7 @@
 
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
-use super::{ploc, split_binned, split_object, split_sweep};
+use super::{lbvh, ploc, split_binned, split_object, split_sweep};
 use crate::Aabb;
 use glam::{Vec3A, Vec4};
 
@@ -101,6 +101,9 @@ pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode
     } = config.split
     {
         return ploc::build_nodes(bounds, config, search_radius, reinsert_per_mille);
+    }
+    if config.split == SplitStrategy::Lbvh {
+        return lbvh::build_nodes(bounds, config);
     }
     let mut prims = collect_prims(bounds);
     let nodes = build_subtree(&mut prims, config, 0, 0);
@@ -250,11 +253,13 @@ fn choose_split(
             fits_in_leaf,
         ),
         SplitStrategy::SweepSah => split_sweep::split(prims, node_bounds, config, fits_in_leaf),
-        // PLOC builds bottom-up and never reaches the top-down driver (`build_nodes` and the
-        // parallel build hand it to `ploc`); should it, an object-median split keeps the tree
-        // valid.
-        SplitStrategy::Ploc { .. } if fits_in_leaf => SplitOutcome::Leaf,
-        SplitStrategy::Ploc { .. } => split_object::median(prims, centroid_bounds),
+        // PLOC and LBVH never reach the top-down driver (`build_nodes` and the parallel build
+        // hand them to their own builders); should they, an object-median split keeps the
+        // tree valid.
+        SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh if fits_in_leaf => SplitOutcome::Leaf,
+        SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh => {
+            split_object::median(prims, centroid_bounds)
+        }
     }
 }
 

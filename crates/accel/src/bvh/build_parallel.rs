@@ -12,13 +12,13 @@ const SERIAL_BELOW: usize = 4096;
 /// handing the two halves of every large node to `rayon::join`. The result is the tree the
 /// serial build makes (same splits, same leaves), laid out in another node order.
 ///
-/// PLOC is built serially: its iterations are sequential scans, and this crate's version is
-/// the single-threaded one.
+/// PLOC and LBVH are built serially: PLOC's iterations are sequential scans, and this crate's
+/// version is the single-threaded one; LBVH is a sort and two linear passes.
 pub(super) fn build_nodes_parallel(
     bounds: &[Aabb],
     config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>) {
-    if let SplitStrategy::Ploc { .. } = config.split {
+    if let SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh = config.split {
         return super::build::build_nodes(bounds, config);
     }
     let mut prims = collect_prims(bounds);

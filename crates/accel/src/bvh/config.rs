@@ -20,6 +20,13 @@ pub enum SplitStrategy {
     /// Full-sweep SAH: every split between sorted centroids on all three axes. The quality
     /// reference; O(n log^2 n) to build.
     SweepSah,
+    /// Not a split: LBVH, the linear BVH (Lauterbach et al. 2009; Karras 2012's binary radix
+    /// tree). Primitives are sorted along a Morton curve and each node splits its run where
+    /// the highest differing bit of their codes changes: a sort and two linear passes, the
+    /// fastest build here (100k boxes in 3.4-3.7 ms on the benchmark machine), for a tree
+    /// 8-22% costlier than a binned SAH one. `max_leaf_size` and `max_depth` apply;
+    /// `sah_termination` does not (no split is costed).
+    Lbvh,
     /// Not a split: PLOC, Parallel Locally-Ordered Clustering (Meister & Bittner 2018), a
     /// bottom-up agglomerative builder run on one thread. Primitives are sorted along a Morton
     /// curve; then, repeatedly, each cluster finds the neighbour within `search_radius` places

@@ -3,6 +3,7 @@
 //! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
 //!   rules.
 //! - `build` and the `split_*` files: the top-down builder.
+//! - `lbvh`: the linear BVH (Morton-sorted radix tree), the fastest build.
 //! - `morton`, `ploc`, `ploc_search`, `ploc_tree` and `reinsert`: the bottom-up builder (PLOC, with optional
 //!   reinsertion), which shares the top-down builder's output format and stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
@@ -17,6 +18,7 @@ mod build;
 #[cfg(feature = "rayon")]
 mod build_parallel;
 pub mod config;
+mod lbvh;
 mod morton;
 mod node;
 mod partition;
