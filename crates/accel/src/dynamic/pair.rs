@@ -226,7 +226,9 @@ impl BoundingTree for StaticDynamicPair {
     #[inline]
     fn prefetch_node(&self, node: u32) {
         if node == VIRTUAL_ROOT {
-        } else if node & STATIC_TAG != 0 {
+            return;
+        }
+        if node & STATIC_TAG != 0 {
             let i = node & !STATIC_TAG;
             self.static_tree.prefetch_node(i);
             // A walk that finds the node inside the view reads its span next.
