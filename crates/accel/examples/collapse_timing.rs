@@ -1,0 +1,57 @@
+//! Prints how long collapsing a binary tree to the 8-wide layouts takes: the step that
+//! follows every static-tree build in the plugin, and every ray copy of the dynamic tree.
+//! The tree is the plugin's static entity tree (PLOC, leaves of up to four) over random
+//! boxes. `cargo run --release -p accel --example collapse_timing -- 1000000`.
+
+use accel::bvh::wide::{Bvh8, QBvh8};
+use accel::{Aabb, BuildConfig, Bvh, SahCosts, SplitStrategy};
+use glam::Vec3A;
+use std::time::{Duration, Instant};
+
+fn main() {
+    let n: usize = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(1_000_000);
+    let mut state = 7u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    // One entity per 64 cubic units, as in the plugin's picking bench.
+    let half = (n as f32 * 64.0).cbrt() / 2.0;
+    let boxes: Vec<Aabb> = (0..n)
+        .map(|_| {
+            let c = (Vec3A::new(next(), next(), next()) * 2.0 - 1.0) * half;
+            Aabb::from_center_half_extents(c, Vec3A::splat(1.5))
+        })
+        .collect();
+    let config = BuildConfig {
+        split: SplitStrategy::PLOC_FASTEST,
+        max_leaf_size: 4,
+        sah: SahCosts {
+            traversal: 1.0,
+            intersection: 4.0,
+        },
+        ..BuildConfig::default()
+    };
+    let bvh = Bvh::build(&boxes, &config);
+    let best_of = |f: &mut dyn FnMut() -> usize| {
+        let mut best = Duration::MAX;
+        let mut nodes = 0;
+        for _ in 0..5 {
+            let t = Instant::now();
+            nodes = f();
+            best = best.min(t.elapsed());
+        }
+        (best, nodes)
+    };
+    let (wide, wide_nodes) = best_of(&mut || Bvh8::from_bvh(&bvh).nodes().len());
+    let (quantized, _) = best_of(&mut || QBvh8::from_bvh(&bvh).nodes().len());
+    println!(
+        "{n} boxes, {} binary nodes: Bvh8 {wide:?}, QBvh8 {quantized:?} ({wide_nodes} wide nodes; best of 5)",
+        bvh.nodes().len()
+    );
+}
