@@ -1,7 +1,8 @@
-//! Prints how long collapsing a binary tree to the 8-wide layouts takes: the step that
-//! follows every static-tree build in the plugin, and every ray copy of the dynamic tree.
-//! The tree is the plugin's static entity tree (PLOC, leaves of up to four) over random
-//! boxes. `cargo run --release -p accel --example collapse_timing -- 1000000`.
+//! Prints what a rebuild of the plugin's static entity tree costs: the build under each
+//! split strategy with the plugin's stopping rules and SAH costs (with the tree's SAH cost),
+//! then the collapse of the PLOC tree to the 8-wide layouts, the step that follows every
+//! static-tree build and every ray copy of the dynamic tree. Random boxes, best of 5.
+//! `cargo run --release -p accel --example entity_tree_timing -- 1000000`.
 
 use accel::bvh::wide::{Bvh8, QBvh8};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts, SplitStrategy};
@@ -37,7 +38,6 @@ fn main() {
         },
         ..BuildConfig::default()
     };
-    let bvh = Bvh::build(&boxes, &config);
     let best_of = |f: &mut dyn FnMut() -> usize| {
         let mut best = Duration::MAX;
         let mut nodes = 0;
@@ -48,6 +48,17 @@ fn main() {
         }
         (best, nodes)
     };
+    for split in [
+        SplitStrategy::BinnedSah { bins: 16 },
+        SplitStrategy::PLOC_FASTEST,
+        SplitStrategy::Lbvh,
+    ] {
+        let config = BuildConfig { split, ..config };
+        let (time, nodes) = best_of(&mut || Bvh::build(&boxes, &config).nodes().len());
+        let sah = Bvh::build(&boxes, &config).stats(&config.sah).sah_cost;
+        println!("{n} boxes, {split:?}: build {time:?}, SAH {sah:.2}, {nodes} nodes");
+    }
+    let bvh = Bvh::build(&boxes, &config);
     let (wide, wide_nodes) = best_of(&mut || Bvh8::from_bvh(&bvh).nodes().len());
     let (quantized, _) = best_of(&mut || QBvh8::from_bvh(&bvh).nodes().len());
     println!(
