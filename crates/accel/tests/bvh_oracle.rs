@@ -402,16 +402,20 @@ fn ploc_matches_brute_force_on_large_scenes_and_odd_input() {
             check_scene(&boxes, &cfg, 99, 40);
         }
         check_invalid_and_infinite_boxes(&cfg);
-        // Nothing valid, one, two.
-        for n in 0..3 {
-            let mut boxes = vec![Aabb::EMPTY; 4];
-            for b in boxes.iter_mut().take(n) {
-                *b = Aabb::new(glam::Vec3A::ZERO, glam::Vec3A::ONE);
-            }
-            let bvh = Bvh::build(&boxes, &cfg);
-            bvh.validate(&boxes).unwrap();
-            assert_eq!(bvh.primitive_count(), n);
+        check_tiny_inputs(&cfg);
+    }
+}
+
+/// Nothing valid, one box, two: each builds a valid tree of exactly the valid boxes.
+fn check_tiny_inputs(cfg: &BuildConfig) {
+    for n in 0..3 {
+        let mut boxes = vec![Aabb::EMPTY; 4];
+        for b in boxes.iter_mut().take(n) {
+            *b = Aabb::new(glam::Vec3A::ZERO, glam::Vec3A::ONE);
         }
+        let bvh = Bvh::build(&boxes, cfg);
+        bvh.validate(&boxes).unwrap();
+        assert_eq!(bvh.primitive_count(), n);
     }
 }
 
@@ -529,15 +533,7 @@ fn lbvh_matches_brute_force_and_honours_its_stopping_rules() {
         check_scene(&boxes, &cfg, 98, 40);
     }
     check_invalid_and_infinite_boxes(&cfg);
-    for n in 0..3 {
-        let mut boxes = vec![Aabb::EMPTY; 4];
-        for b in boxes.iter_mut().take(n) {
-            *b = Aabb::new(glam::Vec3A::ZERO, glam::Vec3A::ONE);
-        }
-        let bvh = Bvh::build(&boxes, &cfg);
-        bvh.validate(&boxes).unwrap();
-        assert_eq!(bvh.primitive_count(), n);
-    }
+    check_tiny_inputs(&cfg);
     let boxes = scene(SceneKind::Clustered, 5_000, 8);
     for max_leaf_size in [1, 2, 4, 8, 16] {
         let cfg = BuildConfig {

@@ -10,8 +10,7 @@
 //! than the last percent of query speed (a level's static tree after an edit, a dynamic tree's
 //! periodic rebuild).
 
-use super::build::centroid;
-use super::morton::{KeyLayout, Quantizer, radix_sort};
+use super::morton::sorted_keys;
 use super::{BuildConfig, BvhNode};
 use crate::Aabb;
 
@@ -24,30 +23,10 @@ use crate::Aabb;
 /// whose codes are all equal (primitives in one grid cell) are split at their middle, so
 /// identical boxes make a balanced subtree rather than a deep one.
 pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
-    assert!(
-        bounds.len() < u32::MAX as usize,
-        "a BVH holds at most u32::MAX - 1 primitives"
-    );
-    let mut centroids = Aabb::EMPTY;
-    let mut n = 0usize;
-    for b in bounds {
-        if b.is_valid() {
-            centroids = centroids.grow(centroid(b));
-            n += 1;
-        }
-    }
-    if n == 0 {
+    let (layout, keys) = sorted_keys(bounds);
+    if keys.is_empty() {
         return (Vec::new(), Vec::new());
     }
-    let layout = KeyLayout::for_ids(bounds.len());
-    let grid = Quantizer::new(&centroids, layout.axis_bits);
-    let mut keys = Vec::with_capacity(n);
-    for (i, b) in bounds.iter().enumerate() {
-        if b.is_valid() {
-            keys.push((grid.code(centroid(b)) << layout.index_bits) | i as u64);
-        }
-    }
-    radix_sort(&mut keys, layout.code_bits());
     let nodes = radix_tree(&keys, layout.index_bits, config);
     let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
     let nodes = with_boxes(nodes, &order, bounds);

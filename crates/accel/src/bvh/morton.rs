@@ -7,6 +7,7 @@
 //! primitive and the id rides along in the low bits without being sorted: LSD radix sorting is
 //! stable, so equal codes keep id order and the result is deterministic.
 
+use super::build::centroid;
 use crate::Aabb;
 use glam::Vec3A;
 use std::ops::Range;
@@ -125,6 +126,34 @@ fn spread3(x: u32) -> u64 {
     x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
     x = (x | x << 2) & 0x1249_2492_4924_9249;
     x
+}
+
+/// The valid boxes of `bounds` as keys sorted along the Morton curve of their centroids
+/// (`code << index_bits | id`, on a grid over the centroids' bounds), with the layout that
+/// reads them; invalid boxes are left out. The first step of PLOC and of LBVH.
+pub(super) fn sorted_keys(bounds: &[Aabb]) -> (KeyLayout, Vec<u64>) {
+    assert!(
+        bounds.len() < u32::MAX as usize,
+        "a BVH holds at most u32::MAX - 1 primitives"
+    );
+    let mut centroids = Aabb::EMPTY;
+    let mut n = 0usize;
+    for b in bounds {
+        if b.is_valid() {
+            centroids = centroids.grow(centroid(b));
+            n += 1;
+        }
+    }
+    let layout = KeyLayout::for_ids(bounds.len());
+    let grid = Quantizer::new(&centroids, layout.axis_bits);
+    let mut keys = Vec::with_capacity(n);
+    for (i, b) in bounds.iter().enumerate() {
+        if b.is_valid() {
+            keys.push((grid.code(centroid(b)) << layout.index_bits) | i as u64);
+        }
+    }
+    radix_sort(&mut keys, layout.code_bits());
+    (layout, keys)
 }
 
 /// Sorts `keys` by the bits in `bits`; lower bits ride along in their input order (the sort is

@@ -12,9 +12,8 @@
 //! ([`super::ploc_tree`]) lays the tree out in the builder's format (children after their
 //! parent, leaves as contiguous ranges of the primitive order).
 
-use super::build::centroid;
 use super::config::{BuildConfig, SplitStrategy};
-use super::morton::{KeyLayout, Quantizer, radix_sort};
+use super::morton::sorted_keys;
 use super::node::BvhNode;
 use super::ploc_search::Search;
 use super::ploc_tree::{
@@ -153,18 +152,8 @@ pub(super) fn build_nodes(
     radius: u32,
     reinsert_per_mille: u32,
 ) -> (Vec<BvhNode>, Vec<u32>) {
-    assert!(
-        bounds.len() < u32::MAX as usize,
-        "a BVH holds at most u32::MAX - 1 primitives"
-    );
-    let mut centroids = Aabb::EMPTY;
-    let mut n = 0usize;
-    for b in bounds {
-        if b.is_valid() {
-            centroids = centroids.grow(centroid(b));
-            n += 1;
-        }
-    }
+    let (layout, keys) = sorted_keys(bounds);
+    let n = keys.len();
     if n >= COLLAPSED as usize / 2 {
         // Node ids would reach the collapse flag: build top-down instead.
         let top_down = BuildConfig {
@@ -173,16 +162,6 @@ pub(super) fn build_nodes(
         };
         return super::build::build_nodes(bounds, &top_down);
     }
-
-    let layout = KeyLayout::for_ids(bounds.len());
-    let grid = Quantizer::new(&centroids, layout.axis_bits);
-    let mut keys = Vec::with_capacity(n);
-    for (i, b) in bounds.iter().enumerate() {
-        if b.is_valid() {
-            keys.push((grid.code(centroid(b)) << layout.index_bits) | i as u64);
-        }
-    }
-    radix_sort(&mut keys, layout.code_bits());
     let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
     drop(keys);
 
