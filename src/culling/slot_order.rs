@@ -73,20 +73,8 @@ impl FoundSlots {
         self.keys.clear();
     }
 
-    /// The slots found as `(slot, exact)`, in ascending slot order, then forgets them.
-    /// `slot_capacity` bounds the slots pushed (one past the largest).
-    #[cfg(test)]
-    fn drain_in_slot_order(
-        &mut self,
-        slot_capacity: usize,
-    ) -> impl ExactSizeIterator<Item = (u32, bool)> + '_ {
-        self.sort_in_slot_order(slot_capacity);
-        self.keys
-            .drain(..)
-            .map(|key| ((key >> 1) as u32, key & 1 == 1))
-    }
-
-    /// Puts the keys in ascending order (see [`Self::drain_in_slot_order`]).
+    /// Puts the keys in ascending order, that is the slots in ascending order, each with its
+    /// flag. `slot_capacity` bounds the slots pushed (one past the largest).
     fn sort_in_slot_order(&mut self, slot_capacity: usize) {
         let key_words = (slot_capacity * 2).div_ceil(64);
         // The bitset costs a pass over `key_words` words; a sort costs ~log2(n) per key.
@@ -163,6 +151,18 @@ mod tests {
     use super::FoundSlots;
     use bevy::prelude::Entity;
 
+    /// The slots found as `(slot, exact)`, in ascending slot order; then forgets them.
+    fn drain_in_slot_order(found: &mut FoundSlots, capacity: usize) -> Vec<(u32, bool)> {
+        found.sort_in_slot_order(capacity);
+        let slots = found
+            .keys
+            .iter()
+            .map(|&key| ((key >> 1) as u32, key & 1 == 1))
+            .collect();
+        found.clear();
+        slots
+    }
+
     /// Both orderings (bitset when dense, sort when sparse) give every slot once, ascending,
     /// with its flag.
     #[test]
@@ -182,9 +182,9 @@ mod tests {
             }
             expected.sort_unstable();
             for _ in 0..2 {
-                let got: Vec<_> = found.drain_in_slot_order(capacity).collect();
+                let got = drain_in_slot_order(&mut found, capacity);
                 assert_eq!(got, expected, "capacity {capacity}, step {step}");
-                assert_eq!(found.drain_in_slot_order(capacity).len(), 0);
+                assert_eq!(drain_in_slot_order(&mut found, capacity).len(), 0);
                 for &(slot, exact) in &expected {
                     found.push(slot, exact);
                 }
