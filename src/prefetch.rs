@@ -9,6 +9,13 @@ pub(crate) fn prefetch<T>(value: &T) {
     prefetch_address((value as *const T).cast::<i8>());
 }
 
+/// [`prefetch`] for a place known only by its address; the address need not be valid.
+#[cfg_attr(not(feature = "culling"), allow(dead_code))]
+#[inline(always)]
+pub(crate) fn prefetch_ptr<T>(address: *const T) {
+    prefetch_address(address.cast::<i8>());
+}
+
 /// Asks for every cache line `value` spans (a 64-byte component at a 16-byte alignment
 /// straddles two lines three times in four).
 #[inline(always)]

@@ -105,7 +105,8 @@ fn populate(app: &mut App, seed: u64, marked: bool) -> Vec<Entity> {
 
 /// Per view, the visible entities as indices into the spawn order (entity ids differ between
 /// the two apps: plugins spawn observers), and each entity's `ViewVisibility`.
-fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<usize>>, Vec<bool>) {
+/// Despawned entities have no flag.
+fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<usize>>, Vec<Option<bool>>) {
     let index: std::collections::HashMap<Entity, usize> =
         entities.iter().enumerate().map(|(i, e)| (*e, i)).collect();
     let world = app.world_mut();
@@ -126,9 +127,39 @@ fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<usize>>, Vec<boo
         .collect();
     let flags = entities
         .iter()
-        .map(|&e| world.get::<ViewVisibility>(e).unwrap().get())
+        .map(|&e| world.get::<ViewVisibility>(e).map(|v| v.get()))
         .collect();
     (lists, flags)
+}
+
+/// A marker that moves an entity to another table when inserted or removed.
+#[derive(Component)]
+struct Moved;
+
+/// The entities whose `ViewVisibility` changed in the frame, as change detection reports them.
+#[derive(Resource, Default)]
+struct ChangedVisibility(Vec<Entity>);
+
+fn record_changed_visibility(
+    changed: Query<Entity, Changed<ViewVisibility>>,
+    mut record: ResMut<ChangedVisibility>,
+) {
+    record.0 = changed.iter().collect();
+}
+
+/// [`ChangedVisibility`] as sorted indices into the spawn order.
+fn changed_indices(app: &App, entities: &[Entity]) -> Vec<usize> {
+    let index: std::collections::HashMap<Entity, usize> =
+        entities.iter().enumerate().map(|(i, e)| (*e, i)).collect();
+    let mut changed: Vec<usize> = app
+        .world()
+        .resource::<ChangedVisibility>()
+        .0
+        .iter()
+        .filter_map(|e| index.get(e).copied())
+        .collect();
+    changed.sort_unstable();
+    changed
 }
 
 #[test]
@@ -302,8 +333,10 @@ fn check_camera_paths(variant: Variant) {
 }
 
 /// A view that proves tens of thousands of entities inside (enough to decide them in parts on
-/// the compute task pool) still gives Bevy's visible set and `ViewVisibility`, with hidden
-/// entities, other render layers and visibility toggles among the ones inside.
+/// the compute task pool) still gives Bevy's visible set, `ViewVisibility` and its change
+/// ticks, with hidden entities, other render layers and visibility toggles among the ones
+/// inside, and with entities moving between Bevy's tables and despawned under a still camera
+/// (the rows the culling remembers go stale).
 #[test]
 fn many_entities_inside_decided_in_parts_equal_bevys() {
     const SIDE: usize = 40;
@@ -354,17 +387,34 @@ fn many_entities_inside_decided_in_parts_equal_bevys() {
             frustum,
             Transform::from_translation(eye),
         ));
+        app.init_resource::<ChangedVisibility>()
+            .add_systems(Last, record_changed_visibility);
     }
     let mut in_parts = 0;
-    for frame in 0..6 {
+    let mut reused_walks = 0;
+    for frame in 0..8 {
         for (app, entities) in [(&mut bevy_app, &a), (&mut accel_app, &b)] {
             for (i, &e) in entities.iter().enumerate() {
+                let Ok(mut e) = app.world_mut().get_entity_mut(e) else {
+                    continue;
+                };
                 if (i + frame) % 17 == 0 {
-                    app.world_mut().entity_mut(e).insert(if frame % 2 == 0 {
+                    e.insert(if frame % 2 == 0 {
                         Visibility::Hidden
                     } else {
                         Visibility::Inherited
                     });
+                }
+                // Rows move without the trees changing: the walk is kept, its rows are not.
+                if (i + frame) % 11 == 0 {
+                    if frame % 2 == 0 {
+                        e.insert(Moved);
+                    } else {
+                        e.remove::<Moved>();
+                    }
+                }
+                if frame == 5 && i % 29 == 0 {
+                    e.despawn();
                 }
             }
             app.update();
@@ -378,12 +428,22 @@ fn many_entities_inside_decided_in_parts_equal_bevys() {
         );
         assert_eq!(bevy_lists, accel_lists, "frame {frame}");
         assert_eq!(bevy_flags, accel_flags, "frame {frame}");
+        assert_eq!(
+            changed_indices(&bevy_app, &a),
+            changed_indices(&accel_app, &b),
+            "frame {frame}: entities whose ViewVisibility changed"
+        );
         let stats = accel_app.world().resource::<CullingStats>();
         assert_eq!(
             stats.flat_views, 0,
             "frame {frame}: the view stays on the tree path"
         );
         in_parts += stats.views_decided_in_parts;
+        reused_walks += stats.reused_walks;
     }
-    assert!(in_parts >= 5, "decided in parts in {in_parts} of 6 frames");
+    assert!(in_parts >= 7, "decided in parts in {in_parts} of 8 frames");
+    assert!(
+        reused_walks >= 3,
+        "the still camera kept its walk {reused_walks} times"
+    );
 }

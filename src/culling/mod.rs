@@ -14,7 +14,7 @@
 mod bevy_rounding;
 mod class_lists;
 mod flat_pass;
-mod inside_pass;
+mod found_pass;
 #[cfg(feature = "light_culling")]
 mod light_verdicts;
 #[cfg(feature = "light_culling")]
@@ -23,6 +23,7 @@ mod light_views;
 mod light_walks;
 mod slot_order;
 mod system;
+mod table_rows;
 mod tree_pass;
 mod untracked;
 mod view_walk;

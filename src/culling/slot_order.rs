@@ -62,7 +62,12 @@ impl FoundSlots {
         out: &mut Vec<(Entity, u16)>,
     ) {
         self.sort_in_slot_order(slot_entities.len());
-        for (slot, _) in Self::sorted_keys_prefetching(&self.keys, slot_entities) {
+        let flags_by_slot = &self.flags_by_slot;
+        let ahead = |slot: u32| {
+            prefetch_entry(slot_entities, slot);
+            prefetch_entry(flags_by_slot, slot);
+        };
+        for (slot, _) in Self::sorted_keys_prefetching(&self.keys, ahead) {
             if let Some(Some(entity)) = slot_entities.get(slot as usize) {
                 out.push((
                     *entity,
@@ -108,41 +113,48 @@ impl FoundSlots {
     /// large world's slot arrays (a view's slab of a grid is a few slots of every row), too far
     /// apart for the hardware prefetcher; a lookup per key waiting on memory was nearly all of
     /// the drain's time (0.75 ms for 50k slots at 1M entities).
-    fn sorted_keys_prefetching<'a, T>(
+    fn sorted_keys_prefetching<'a>(
         keys: &'a [u64],
-        by_slot: &'a [T],
+        ahead: impl Fn(u32) + 'a,
     ) -> impl Iterator<Item = (u32, bool)> + 'a {
         keys.iter().enumerate().map(move |(i, &key)| {
-            if let Some(entry) = keys
-                .get(i + LOOKUP_AHEAD)
-                .and_then(|&k| by_slot.get((k >> 1) as usize))
-            {
-                prefetch(entry);
+            if let Some(&k) = keys.get(i + LOOKUP_AHEAD) {
+                ahead((k >> 1) as u32);
             }
             ((key >> 1) as u32, key & 1 == 1)
         })
     }
 
-    /// The entities of the slots found, in slot order: those a tree proved inside the frustum
-    /// into `inside`, those still needing the exact test into `crossing`; then forgets them.
+    /// The slots found with their entities, in slot order, each with whether it still needs
+    /// the exact test, handed to `found`; then forgets them. Free slots are skipped.
     /// `slot_entities` is [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
+    /// `ahead` is called with slots [`LOOKUP_AHEAD`] keys before `found` meets them, to
+    /// prefetch what `found` will read of them.
     pub(crate) fn drain_entities(
         &mut self,
         slot_entities: &[Option<Entity>],
-        inside: &mut Vec<Entity>,
-        crossing: &mut Vec<Entity>,
+        ahead: impl Fn(u32),
+        mut found: impl FnMut(u32, Entity, bool),
     ) {
         self.sort_in_slot_order(slot_entities.len());
-        for (slot, exact) in Self::sorted_keys_prefetching(&self.keys, slot_entities) {
+        let ahead = |slot| {
+            prefetch_entry(slot_entities, slot);
+            ahead(slot);
+        };
+        for (slot, exact) in Self::sorted_keys_prefetching(&self.keys, ahead) {
             if let Some(Some(entity)) = slot_entities.get(slot as usize) {
-                if exact {
-                    crossing.push(*entity);
-                } else {
-                    inside.push(*entity);
-                }
+                found(slot, *entity, exact);
             }
         }
         self.keys.clear();
+    }
+}
+
+/// Prefetches `by_slot[slot]`, if there is one.
+#[inline(always)]
+pub(crate) fn prefetch_entry<T>(by_slot: &[T], slot: u32) {
+    if let Some(entry) = by_slot.get(slot as usize) {
+        prefetch(entry);
     }
 }
 
@@ -192,7 +204,8 @@ mod tests {
         }
     }
 
-    /// Entities come out in slot order, split by flag, and free slots are skipped.
+    /// Entities come out with their slots in slot order, split by flag, and free slots are
+    /// skipped.
     #[test]
     fn drains_entities_split_by_flag_skipping_free_slots() {
         let slot_entities: Vec<Option<Entity>> = (0..5_000u32)
@@ -203,11 +216,21 @@ mod tests {
             found.push(slot, slot % 3 == 0);
         }
         let (mut inside, mut crossing) = (Vec::new(), Vec::new());
-        found.drain_entities(&slot_entities, &mut inside, &mut crossing);
-        let expect = |exact: bool| -> Vec<Entity> {
+        found.drain_entities(
+            &slot_entities,
+            |_| {},
+            |slot, entity, exact| {
+                if exact {
+                    crossing.push((slot, entity));
+                } else {
+                    inside.push((slot, entity));
+                }
+            },
+        );
+        let expect = |exact: bool| -> Vec<(u32, Entity)> {
             (0..5_000u32)
                 .filter(|s| s % 2 == 0 && (s % 3 == 0) == exact)
-                .filter_map(|s| slot_entities[s as usize])
+                .filter_map(|s| slot_entities[s as usize].map(|e| (s, e)))
                 .collect()
         };
         assert_eq!(inside, expect(false));

@@ -3,9 +3,10 @@
 use super::bevy_rounding::walk_frustum_for_bevy;
 use super::class_lists::ClassLists;
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
-use super::inside_pass::decide_inside;
+use super::found_pass::decide_found;
 use super::slot_order::FoundSlots;
-use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, TOUCH_BATCH, ViewPass};
+use super::table_rows::{FoundEntity, SlotRows};
+use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
 use super::untracked::UntrackedEntities;
 use super::view_walk::{ViewWalk, WalkForm};
 use crate::trees::AccelTrees;
@@ -165,6 +166,7 @@ pub(crate) fn cull_views_with_trees(
     mut walks: Local<EntityHashMap<ViewWalk>>,
     mut class_lists: Local<ClassLists>,
     mut part_lists: Local<Vec<ClassLists>>,
+    mut slot_rows: Local<SlotRows>,
     entities: &Entities,
     bounds: Query<BoundsItem, Without<NoCpuCulling>>,
 ) {
@@ -275,25 +277,24 @@ pub(crate) fn cull_views_with_trees(
                     &AccelFrustum::from_planes(planes),
                     |slot, containment| found.push(slot, containment != Containment::Inside),
                 );
-                found.drain_entities(trees.slot_entities(), &mut walk.inside, &mut walk.crossing);
+                let (inside, crossing) = (&mut walk.inside, &mut walk.crossing);
+                let ahead = |slot| slot_rows.prefetch(slot);
+                found.drain_entities(trees.slot_entities(), ahead, |slot, entity, exact| {
+                    let found = FoundEntity {
+                        entity,
+                        slot,
+                        hint: slot_rows.get(slot),
+                    };
+                    if exact {
+                        crossing.push(found);
+                    } else {
+                        inside.push(found);
+                    }
+                });
             }
-            let (inside, crossing) = (&walk.inside, &walk.crossing);
-            let (visible, in_parts) = decide_inside(
-                pass.deciding,
-                pass.filter,
-                inside,
-                entities,
-                pass.lists,
-                &mut part_lists,
-            );
-            pass.stats.accepted_by_subtree += visible;
-            pass.stats.visible += visible;
-            pass.stats.views_decided_in_parts += usize::from(in_parts);
-            for batch in crossing.chunks(TOUCH_BATCH) {
-                pass.touch_rows(batch, entities);
-                for &entity in batch {
-                    pass.decide_exact(entity);
-                }
+            if decide_found(&mut pass, walk, entities, &mut part_lists) > 0 {
+                slot_rows.remember(&walk.inside);
+                slot_rows.remember(&walk.crossing);
             }
         }
         // The fraction that chooses the pass counts only what the walk found: entities outside

@@ -1,16 +1,14 @@
-//! Deciding the entities a view's tree walk found: Bevy's per-entity rules, with the frustum
-//! test only where a tree could not settle it.
+//! The queries that decide a view's entities, and deciding one entity through them: Bevy's
+//! per-entity rules, with its frustum test.
 
 use super::class_lists::ClassLists;
 use super::system::{ViewFilter, bevy_frustum_test};
 use crate::culling::system::CullingStats;
-use crate::prefetch::prefetch;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
     VisibilityRange,
 };
-use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
 
 /// What deciding an entity reads and writes, bounds aside.
@@ -34,39 +32,11 @@ pub(crate) type DecideFilter = (
 
 /// What Bevy's exact frustum test reads.
 pub(crate) type BoundsItem = (
+    Entity,
     Option<&'static Aabb>,
     Option<&'static Sphere>,
     &'static GlobalTransform,
 );
-
-/// Entities whose ECS rows are fetched together before they are decided.
-pub(crate) const TOUCH_BATCH: usize = 32;
-
-/// Starts the cache misses that deciding a batch of entities takes inside Bevy: each
-/// entity's location record, then its rows of the decided components. Why: perf at 1M
-/// entities with 5% in view put most of the decision time on these misses. A decision is a
-/// few hundred instructions behind them, so decided one at a time the misses run one at a
-/// time; these loops are short with independent iterations, so a whole batch's misses are
-/// in flight at once. The rows are only prefetched: their addresses need the location,
-/// not the rows.
-pub(crate) fn touch_rows(
-    deciding: &Query<DecideItem, DecideFilter>,
-    batch: &[Entity],
-    entities: &Entities,
-) {
-    for &entity in batch {
-        core::hint::black_box(entities.get(entity).ok().flatten());
-    }
-    for &entity in batch {
-        if let Ok((_, inherited, view_visibility, class, _, _)) = deciding.get(entity) {
-            prefetch(inherited);
-            prefetch(view_visibility);
-            if let Some(class) = class {
-                prefetch(class);
-            }
-        }
-    }
-}
 
 /// One view's decisions: Bevy's rules for each entity, its frustum test where asked.
 pub(crate) struct ViewPass<'a, 'w, 's> {
@@ -80,11 +50,6 @@ pub(crate) struct ViewPass<'a, 'w, 's> {
 }
 
 impl ViewPass<'_, '_, '_> {
-    /// [`touch_rows`] through this pass's query.
-    pub(crate) fn touch_rows(&self, batch: &[Entity], entities: &Entities) {
-        touch_rows(self.deciding, batch, entities);
-    }
-
     /// Decides one entity as Bevy's `check_visibility_cpu_culling` does, frustum test
     /// included.
     pub(crate) fn decide_exact(&mut self, entity: Entity) {
@@ -96,7 +61,7 @@ impl ViewPass<'_, '_, '_> {
         if !self.filter.admits(entity, inherited, layers, has_range) {
             return;
         }
-        let Ok((aabb, sphere, transform)) = self.bounds.get(entity) else {
+        let Ok((_, aabb, sphere, transform)) = self.bounds.get(entity) else {
             return;
         };
         if !self.no_cpu_culling_view {

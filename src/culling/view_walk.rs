@@ -1,7 +1,7 @@
 //! A view's last tree walk, kept for the next frame.
 
+use super::table_rows::FoundEntity;
 use bevy::math::Vec4;
-use bevy::prelude::Entity;
 
 /// What a view's walk of the trees found, with the frustum it walked.
 ///
@@ -17,10 +17,12 @@ pub(crate) struct ViewWalk {
     planes: Option<[Vec4; 6]>,
     /// The form the finds were kept in.
     form: WalkForm,
-    /// Entities a tree proved inside, in slot order ([`WalkForm::Lists`]).
-    pub(crate) inside: Vec<Entity>,
-    /// Entities whose leaf crosses a plane, in slot order ([`WalkForm::Lists`]).
-    pub(crate) crossing: Vec<Entity>,
+    /// Entities a tree proved inside, in slot order, with their row hints
+    /// ([`WalkForm::Lists`]).
+    pub(crate) inside: Vec<FoundEntity>,
+    /// Entities whose leaf crosses a plane, in slot order, with their row hints
+    /// ([`WalkForm::Lists`]).
+    pub(crate) crossing: Vec<FoundEntity>,
     /// Tree slots a tree proved inside ([`WalkForm::Bits`]).
     pub(crate) inside_bits: SlotBits,
     /// Tree slots whose leaf crosses a plane ([`WalkForm::Bits`]).
