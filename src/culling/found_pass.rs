@@ -2,10 +2,12 @@
 //! spread over the compute task pool when they are many.
 
 use super::class_lists::ClassLists;
+use super::slot_order::{SlotKey, prefetch_entry};
 use super::system::ViewFilter;
-use super::table_rows::{BoundsColumns, DecideColumns, DecideTally, ExactTest, FoundEntity};
+use super::table_rows::{
+    BoundsColumns, DecideColumns, DecideTally, ExactTest, FoundEntity, SlotRows,
+};
 use super::tree_pass::ViewPass;
-use super::view_walk::ViewWalk;
 use bevy::camera::visibility::SetViewVisibility;
 use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
@@ -22,70 +24,90 @@ const MIN_PART: usize = 2_048;
 /// decisions to cover a memory latency.
 const ROWS_AHEAD: usize = 16;
 
-/// Decides what `walk` found, by Bevy's rules: the entities a tree proved inside without a
-/// frustum test, those whose leaf crosses a plane with it. Sets `ViewVisibility`, fills the
-/// pass's lists (each list in slot order, inside entities first) and counts into its stats.
-/// Replaces the row hints in `walk` that no longer held, and returns how many it replaced.
+/// How many slots ahead of its lookup a slot's entity and row hint are prefetched.
+const SLOTS_AHEAD: usize = 64;
+
+/// A fresh walk's finds, to be turned into the view's list of [`FoundEntity`] as they are
+/// decided.
+pub(crate) struct FreshFinds<'a> {
+    /// The walk's finds, in slot order
+    /// ([`FoundSlots::sorted_keys`](super::slot_order::FoundSlots::sorted_keys)).
+    pub(crate) keys: &'a [SlotKey],
+    /// [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
+    pub(crate) slot_entities: &'a [Option<Entity>],
+    pub(crate) slot_rows: &'a SlotRows,
+}
+
+/// Decides what a view's walk found, by Bevy's rules: the entities a tree proved inside
+/// without a frustum test, those whose leaf crosses a plane with it. Sets `ViewVisibility`,
+/// fills the pass's lists in `found`'s order and counts into its stats.
+///
+/// With `fresh` finds, `found` is first rebuilt from them (in the same parallel parts as the
+/// decisions: why, see [`decide_list`]); without, the list kept from the last frame is decided
+/// again. Row hints in `found` that no longer held are replaced; returns how many.
 ///
 /// `part_lists` holds one list set per part between calls, so that their memory is reused.
 pub(crate) fn decide_found(
     pass: &mut ViewPass<'_, '_, '_>,
-    walk: &mut ViewWalk,
+    found: &mut Vec<FoundEntity>,
+    fresh: Option<FreshFinds<'_>>,
     entities: &Entities,
     part_lists: &mut Vec<ClassLists>,
 ) -> usize {
+    if let Some(fresh) = &fresh {
+        found.clear();
+        found.resize(fresh.keys.len(), FoundEntity::VACANT);
+    }
     let bounds = BoundsColumns::gather(pass.bounds, entities);
     let (Some(columns), Some(bounds)) = (DecideColumns::gather(pass.deciding, entities), &bounds)
     else {
-        decide_by_lookup(pass, walk);
+        if let Some(fresh) = &fresh {
+            fill_from_keys(found, &fresh);
+        }
+        decide_by_lookup(pass, found);
         return 0;
     };
     let exact = ExactTest {
         frustum: pass.frustum,
         bounds,
     };
-    let (inside, inside_in_parts) = decide_list(
+    let (tally, in_parts) = decide_list(
         &columns,
         pass.filter,
-        None,
-        &mut walk.inside,
-        entities,
-        pass.lists,
-        part_lists,
-    );
-    let (crossing, crossing_in_parts) = decide_list(
-        &columns,
-        pass.filter,
-        Some(exact),
-        &mut walk.crossing,
+        exact,
+        found,
+        fresh.as_ref(),
         entities,
         pass.lists,
         part_lists,
     );
     let stats = &mut *pass.stats;
-    stats.accepted_by_subtree += inside.visible;
-    stats.visible += inside.visible + crossing.visible;
-    stats.tested += crossing.tested;
-    stats.views_decided_in_parts += usize::from(inside_in_parts || crossing_in_parts);
-    inside.refreshed + crossing.refreshed
+    stats.accepted_by_subtree += tally.accepted;
+    stats.visible += tally.visible;
+    stats.tested += tally.tested;
+    stats.views_decided_in_parts += usize::from(in_parts);
+    tally.refreshed
 }
 
-/// Decides `list` (entities a walk found, each at most once, in slot order), with Bevy's
-/// frustum test if `exact` is given, filling `lists` in list order.
+/// Decides `list` (entities a walk found, each at most once, in slot order), filling `lists`
+/// in list order. With `fresh` finds (as long as `list`), each part first fills its share of
+/// `list` from its share of the keys.
 ///
 /// From [`PARALLEL_FROM`] entities, and when Bevy's compute task pool exists, the list is
 /// decided in contiguous parts on the pool, and each part's visible entities are appended to
 /// `lists` in part order, so the lists come out as from one thread. Why: the decisions wait on
-/// memory (rows of a few columns for each entity), and how many misses a core keeps in flight
-/// is bounded by its fill buffers; two cores keep twice as many, as Bevy's own culling loop
-/// uses the pool. At 1M entities with 5% in view this took the still view from 3.4-4.0 ms to
-/// 1.9-2.6 ms on a 2-core machine, when decisions still went through entity lookups
-/// (BENCHMARKS.md).
+/// memory (rows of a few columns for each entity, and for fresh finds each slot's entity and
+/// row hint), and how many misses a core keeps in flight is bounded by its fill buffers; two
+/// cores keep twice as many, as Bevy's own culling loop uses the pool. At 1M entities with 5%
+/// in view this took the still view from 3.4-4.0 ms to 1.9-2.6 ms on a 2-core machine, when
+/// decisions still went through entity lookups (BENCHMARKS.md).
+#[allow(clippy::too_many_arguments)]
 fn decide_list(
     columns: &DecideColumns<'_>,
     filter: ViewFilter<'_>,
-    exact: Option<ExactTest<'_, '_>>,
+    exact: ExactTest<'_, '_>,
     list: &mut [FoundEntity],
+    fresh: Option<&FreshFinds<'_>>,
     entities: &Entities,
     lists: &mut ClassLists,
     part_lists: &mut Vec<ClassLists>,
@@ -98,20 +120,35 @@ fn decide_list(
         (4 * (pool.thread_num() + 1)).min(list.len() / MIN_PART)
     });
     let (Some(pool), true) = (pool, list.len() >= PARALLEL_FROM && parts >= 2) else {
-        return (
-            decide_part(columns, filter, exact, list, entities, lists),
-            false,
-        );
+        let tally = decide_part(columns, filter, exact, list, fresh, entities, lists);
+        return (tally, false);
     };
     let part_len = list.len().div_ceil(parts);
     if part_lists.len() < parts {
         part_lists.resize_with(parts, ClassLists::default);
     }
     let tallies: Vec<DecideTally> = pool.scope(|scope| {
-        for (part, part_lists) in list.chunks_mut(part_len).zip(part_lists.iter_mut()) {
-            scope.spawn(
-                async move { decide_part(columns, filter, exact, part, entities, part_lists) },
-            );
+        for (i, (part, part_lists)) in list
+            .chunks_mut(part_len)
+            .zip(part_lists.iter_mut())
+            .enumerate()
+        {
+            // The same boundaries over the keys as over the list.
+            let fresh = fresh.map(|f| FreshFinds {
+                keys: &f.keys[i * part_len..i * part_len + part.len()],
+                ..*f
+            });
+            scope.spawn(async move {
+                decide_part(
+                    columns,
+                    filter,
+                    exact,
+                    part,
+                    fresh.as_ref(),
+                    entities,
+                    part_lists,
+                )
+            });
         }
     });
     for part in part_lists.iter_mut() {
@@ -123,20 +160,25 @@ fn decide_list(
     (tally, true)
 }
 
-/// One part, in order, each entity's rows prefetched [`ROWS_AHEAD`] entities earlier.
+/// One part, in order, each entity's rows prefetched [`ROWS_AHEAD`] entities earlier; with
+/// `fresh` finds, the part is first filled from them.
 fn decide_part(
     columns: &DecideColumns<'_>,
     filter: ViewFilter<'_>,
-    exact: Option<ExactTest<'_, '_>>,
+    exact: ExactTest<'_, '_>,
     part: &mut [FoundEntity],
+    fresh: Option<&FreshFinds<'_>>,
     entities: &Entities,
     lists: &mut ClassLists,
 ) -> DecideTally {
+    if let Some(fresh) = fresh {
+        fill_from_keys(part, fresh);
+    }
     let mut tally = DecideTally::default();
     for i in 0..part.len() {
         if let Some(ahead) = part.get(i + ROWS_AHEAD) {
             columns.prefetch_row(ahead.hint);
-            if let Some(exact) = exact {
+            if ahead.exact {
                 exact.bounds.prefetch_row(ahead.hint);
             }
         }
@@ -145,10 +187,33 @@ fn decide_part(
     tally
 }
 
+/// Fills `part` from `fresh.keys` (as many), each slot's entity and row hint prefetched
+/// [`SLOTS_AHEAD`] keys earlier. Why: ascending slots are still scattered through a large
+/// world's slot arrays (a view's slab of a grid is a few slots of every row), too far apart
+/// for the hardware prefetcher; waiting on each lookup was most of the ordering's time.
+fn fill_from_keys(part: &mut [FoundEntity], fresh: &FreshFinds<'_>) {
+    for (i, (item, key)) in part.iter_mut().zip(fresh.keys).enumerate() {
+        if let Some(ahead) = fresh.keys.get(i + SLOTS_AHEAD) {
+            prefetch_entry(fresh.slot_entities, ahead.slot());
+            fresh.slot_rows.prefetch(ahead.slot());
+        }
+        *item = FoundEntity::of_slot(
+            key.slot(),
+            key.exact(),
+            fresh.slot_entities,
+            fresh.slot_rows,
+        );
+    }
+}
+
 /// The same decisions through the queries, one lookup per entity: for queries that cannot be
 /// read as table columns (never expected; see [`DecideColumns::gather`]).
-fn decide_by_lookup(pass: &mut ViewPass<'_, '_, '_>, walk: &ViewWalk) {
-    for item in &walk.inside {
+fn decide_by_lookup(pass: &mut ViewPass<'_, '_, '_>, found: &[FoundEntity]) {
+    for item in found {
+        if item.exact {
+            pass.decide_exact(item.entity);
+            continue;
+        }
         let Ok((entity, inherited, mut view_visibility, class, layers, has_range)) =
             pass.deciding.get_mut(item.entity)
         else {
@@ -163,8 +228,5 @@ fn decide_by_lookup(pass: &mut ViewPass<'_, '_, '_>, walk: &ViewWalk) {
         if let Some(class) = class {
             pass.lists.push(class, entity);
         }
-    }
-    for item in &walk.crossing {
-        pass.decide_exact(item.entity);
     }
 }

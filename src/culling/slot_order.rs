@@ -18,14 +18,33 @@ const LOOKUP_AHEAD: usize = 64;
 /// range a bitset over the slots orders them in linear time instead.
 #[derive(Default)]
 pub(crate) struct FoundSlots {
-    /// `slot << 1 | exact`, in walk order.
-    keys: Vec<u64>,
+    /// In walk order until sorted.
+    keys: Vec<SlotKey>,
     /// One bit per key value; all zero between uses (draining clears what it reads).
     bits: Vec<u64>,
     /// Per slot, the flags pushed with it by [`Self::push_with_flags`]. Only the entries of
     /// slots pushed since the last drain are read, so it is never cleared.
     #[cfg(feature = "light_culling")]
     flags_by_slot: Vec<u16>,
+}
+
+/// A slot found by a walk and whether its entity still needs the exact test, packed as
+/// `slot << 1 | exact` so that keys order by slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct SlotKey(u64);
+
+impl SlotKey {
+    /// The tree slot.
+    #[inline]
+    pub(crate) fn slot(self) -> u32 {
+        (self.0 >> 1) as u32
+    }
+
+    /// Whether the slot's entity still needs the exact test.
+    #[inline]
+    pub(crate) fn exact(self) -> bool {
+        self.0 & 1 == 1
+    }
 }
 
 impl FoundSlots {
@@ -37,7 +56,8 @@ impl FoundSlots {
     /// Records a slot the walk found; `exact` means its entity still needs the exact test.
     #[inline]
     pub(crate) fn push(&mut self, slot: u32, exact: bool) {
-        self.keys.push((u64::from(slot) << 1) | u64::from(exact));
+        self.keys
+            .push(SlotKey((u64::from(slot) << 1) | u64::from(exact)));
     }
 
     #[cfg(feature = "light_culling")]
@@ -86,20 +106,20 @@ impl FoundSlots {
         // Pick whichever is fewer steps (a key larger than the capacity, which a caller
         // should never push, falls back to the sort rather than indexing out of range).
         let dense = self.keys.len() * 16 >= key_words
-            && self.keys.iter().all(|&k| ((k >> 6) as usize) < key_words);
+            && self.keys.iter().all(|k| ((k.0 >> 6) as usize) < key_words);
         if dense {
             if self.bits.len() < key_words {
                 self.bits.resize(key_words, 0);
             }
-            for &key in &self.keys {
-                self.bits[(key >> 6) as usize] |= 1 << (key & 63);
+            for key in &self.keys {
+                self.bits[(key.0 >> 6) as usize] |= 1 << (key.0 & 63);
             }
             self.keys.clear();
             for (w, word) in self.bits[..key_words].iter_mut().enumerate() {
                 let mut b = core::mem::take(word);
                 while b != 0 {
                     self.keys
-                        .push(((w as u64) << 6) | u64::from(b.trailing_zeros()));
+                        .push(SlotKey(((w as u64) << 6) | u64::from(b.trailing_zeros())));
                     b &= b - 1;
                 }
             }
@@ -114,39 +134,22 @@ impl FoundSlots {
     /// apart for the hardware prefetcher; a lookup per key waiting on memory was nearly all of
     /// the drain's time (0.75 ms for 50k slots at 1M entities).
     fn sorted_keys_prefetching<'a>(
-        keys: &'a [u64],
+        keys: &'a [SlotKey],
         ahead: impl Fn(u32) + 'a,
     ) -> impl Iterator<Item = (u32, bool)> + 'a {
         keys.iter().enumerate().map(move |(i, &key)| {
-            if let Some(&k) = keys.get(i + LOOKUP_AHEAD) {
-                ahead((k >> 1) as u32);
+            if let Some(k) = keys.get(i + LOOKUP_AHEAD) {
+                ahead(k.slot());
             }
-            ((key >> 1) as u32, key & 1 == 1)
+            (key.slot(), key.exact())
         })
     }
 
-    /// The slots found with their entities, in slot order, each with whether it still needs
-    /// the exact test, handed to `found`; then forgets them. Free slots are skipped.
-    /// `slot_entities` is [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
-    /// `ahead` is called with slots [`LOOKUP_AHEAD`] keys before `found` meets them, to
-    /// prefetch what `found` will read of them.
-    pub(crate) fn drain_entities(
-        &mut self,
-        slot_entities: &[Option<Entity>],
-        ahead: impl Fn(u32),
-        mut found: impl FnMut(u32, Entity, bool),
-    ) {
-        self.sort_in_slot_order(slot_entities.len());
-        let ahead = |slot| {
-            prefetch_entry(slot_entities, slot);
-            ahead(slot);
-        };
-        for (slot, exact) in Self::sorted_keys_prefetching(&self.keys, ahead) {
-            if let Some(Some(entity)) = slot_entities.get(slot as usize) {
-                found(slot, *entity, exact);
-            }
-        }
-        self.keys.clear();
+    /// The keys found, in ascending slot order (each slot once); the next [`Self::clear`]
+    /// forgets them. `slot_capacity` bounds the slots pushed (one past the largest).
+    pub(crate) fn sorted_keys(&mut self, slot_capacity: usize) -> &[SlotKey] {
+        self.sort_in_slot_order(slot_capacity);
+        &self.keys
     }
 }
 
@@ -165,11 +168,10 @@ mod tests {
 
     /// The slots found as `(slot, exact)`, in ascending slot order; then forgets them.
     fn drain_in_slot_order(found: &mut FoundSlots, capacity: usize) -> Vec<(u32, bool)> {
-        found.sort_in_slot_order(capacity);
         let slots = found
-            .keys
+            .sorted_keys(capacity)
             .iter()
-            .map(|&key| ((key >> 1) as u32, key & 1 == 1))
+            .map(|key| (key.slot(), key.exact()))
             .collect();
         found.clear();
         slots
@@ -202,39 +204,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// Entities come out with their slots in slot order, split by flag, and free slots are
-    /// skipped.
-    #[test]
-    fn drains_entities_split_by_flag_skipping_free_slots() {
-        let slot_entities: Vec<Option<Entity>> = (0..5_000u32)
-            .map(|i| (i % 7 != 3).then(|| Entity::from_raw_u32(i + 100).unwrap()))
-            .collect();
-        let mut found = FoundSlots::default();
-        for slot in (0..5_000u32).rev().filter(|s| s % 2 == 0) {
-            found.push(slot, slot % 3 == 0);
-        }
-        let (mut inside, mut crossing) = (Vec::new(), Vec::new());
-        found.drain_entities(
-            &slot_entities,
-            |_| {},
-            |slot, entity, exact| {
-                if exact {
-                    crossing.push((slot, entity));
-                } else {
-                    inside.push((slot, entity));
-                }
-            },
-        );
-        let expect = |exact: bool| -> Vec<(u32, Entity)> {
-            (0..5_000u32)
-                .filter(|s| s % 2 == 0 && (s % 3 == 0) == exact)
-                .filter_map(|s| slot_entities[s as usize].map(|e| (s, e)))
-                .collect()
-        };
-        assert_eq!(inside, expect(false));
-        assert_eq!(crossing, expect(true));
     }
 
     /// Flags come out with their slots' entities, in slot order, free slots skipped.

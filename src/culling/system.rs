@@ -3,9 +3,9 @@
 use super::bevy_rounding::walk_frustum_for_bevy;
 use super::class_lists::ClassLists;
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
-use super::found_pass::decide_found;
+use super::found_pass::{FreshFinds, decide_found};
 use super::slot_order::FoundSlots;
-use super::table_rows::{FoundEntity, SlotRows};
+use super::table_rows::SlotRows;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
 use super::untracked::UntrackedEntities;
 use super::view_walk::{ViewWalk, WalkForm};
@@ -265,8 +265,9 @@ pub(crate) fn cull_views_with_trees(
         } else {
             let planes = tree_planes(frustum);
             let walk = walks.entry(view).or_default();
-            if walk.walked(&planes, WalkForm::Lists) {
+            let fresh = if walk.walked(&planes, WalkForm::Lists) {
                 pass.stats.reused_walks += 1;
+                None
             } else {
                 // The tree finds entities in spatial order, which is random in the ECS
                 // tables; they are decided in slot order instead (see `FoundSlots`).
@@ -277,24 +278,14 @@ pub(crate) fn cull_views_with_trees(
                     &AccelFrustum::from_planes(planes),
                     |slot, containment| found.push(slot, containment != Containment::Inside),
                 );
-                let (inside, crossing) = (&mut walk.inside, &mut walk.crossing);
-                let ahead = |slot| slot_rows.prefetch(slot);
-                found.drain_entities(trees.slot_entities(), ahead, |slot, entity, exact| {
-                    let found = FoundEntity {
-                        entity,
-                        slot,
-                        hint: slot_rows.get(slot),
-                    };
-                    if exact {
-                        crossing.push(found);
-                    } else {
-                        inside.push(found);
-                    }
-                });
-            }
-            if decide_found(&mut pass, walk, entities, &mut part_lists) > 0 {
-                slot_rows.remember(&walk.inside);
-                slot_rows.remember(&walk.crossing);
+                Some(FreshFinds {
+                    keys: found.sorted_keys(trees.slot_entities().len()),
+                    slot_entities: trees.slot_entities(),
+                    slot_rows: &slot_rows,
+                })
+            };
+            if decide_found(&mut pass, &mut walk.found, fresh, entities, &mut part_lists) > 0 {
+                slot_rows.remember(&walk.found);
             }
         }
         // The fraction that chooses the pass counts only what the walk found: entities outside

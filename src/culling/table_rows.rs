@@ -36,12 +36,47 @@ impl RowHint {
     };
 }
 
-/// An entity a tree walk found in a view, with its tree slot and its row hint.
+/// An entity a tree walk found in a view, with its tree slot, its row hint, and whether its
+/// leaf crosses a plane of the view (it then gets Bevy's frustum test; a tree proved the
+/// others inside).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FoundEntity {
     pub(crate) entity: Entity,
     pub(crate) slot: u32,
     pub(crate) hint: RowHint,
+    pub(crate) exact: bool,
+}
+
+impl FoundEntity {
+    /// A place in a list, to be filled.
+    pub(crate) const VACANT: Self = Self {
+        entity: Entity::PLACEHOLDER,
+        slot: u32::MAX,
+        hint: RowHint::UNKNOWN,
+        exact: false,
+    };
+
+    /// A tree slot found by a walk, `exact` if its leaf crosses a plane, with the entity and
+    /// row hint the slot has now (a free slot gets `Entity::PLACEHOLDER`, which no decision
+    /// finds).
+    #[inline]
+    pub(crate) fn of_slot(
+        slot: u32,
+        exact: bool,
+        slot_entities: &[Option<Entity>],
+        slot_rows: &SlotRows,
+    ) -> Self {
+        Self {
+            entity: slot_entities
+                .get(slot as usize)
+                .copied()
+                .flatten()
+                .unwrap_or(Entity::PLACEHOLDER),
+            slot,
+            hint: slot_rows.get(slot),
+            exact,
+        }
+    }
 }
 
 /// The row hint of each tree slot's entity, shared by every view, so that a walk made afresh
@@ -232,15 +267,14 @@ impl<'q> DecideColumns<'q> {
     }
 
     /// Decides `item`'s entity as Bevy's culling does: its hierarchy visibility, layers and
-    /// range, then, if `exact` is given, Bevy's frustum test on its bounds (a tree proved the
-    /// others inside the view). If visible, sets its `ViewVisibility` through Bevy's
-    /// `set_visible` and pushes it into `lists`.
+    /// range, then, if the item is `exact`, Bevy's frustum test on its bounds. If visible,
+    /// sets its `ViewVisibility` through Bevy's `set_visible` and pushes it into `lists`.
     #[inline]
     pub(crate) fn decide(
         &self,
         item: &mut FoundEntity,
         filter: ViewFilter<'_>,
-        exact: Option<ExactTest<'_, '_>>,
+        exact: ExactTest<'_, '_>,
         entities: &Entities,
         lists: &mut ClassLists,
         tally: &mut DecideTally,
@@ -253,7 +287,7 @@ impl<'q> DecideColumns<'q> {
         if !filter.admits(entity, &table.inherited[row], layers, table.has_range) {
             return;
         }
-        if let Some(exact) = exact {
+        if item.exact {
             // The bounds query matches every table the deciding one does (it filters less);
             // were it not to, Bevy's query would skip the entity too.
             let Some(bounds) = exact.bounds.table_at(item.hint) else {
@@ -281,6 +315,7 @@ impl<'q> DecideColumns<'q> {
         };
         visibility.set_visible();
         tally.visible += 1;
+        tally.accepted += usize::from(!item.exact);
         if let Some(class) = table.class {
             lists.push(&class[row], entity);
         }
@@ -292,6 +327,8 @@ impl<'q> DecideColumns<'q> {
 pub(crate) struct DecideTally {
     /// Entities found visible.
     pub(crate) visible: usize,
+    /// Of those, entities a tree proved inside (no frustum test).
+    pub(crate) accepted: usize,
     /// Entities given Bevy's frustum test.
     pub(crate) tested: usize,
     /// Row hints that no longer held and were looked up again.
@@ -303,6 +340,7 @@ impl DecideTally {
     pub(crate) fn add(self, other: Self) -> Self {
         Self {
             visible: self.visible + other.visible,
+            accepted: self.accepted + other.accepted,
             tested: self.tested + other.tested,
             refreshed: self.refreshed + other.refreshed,
         }

@@ -17,12 +17,9 @@ pub(crate) struct ViewWalk {
     planes: Option<[Vec4; 6]>,
     /// The form the finds were kept in.
     form: WalkForm,
-    /// Entities a tree proved inside, in slot order, with their row hints
-    /// ([`WalkForm::Lists`]).
-    pub(crate) inside: Vec<FoundEntity>,
-    /// Entities whose leaf crosses a plane, in slot order, with their row hints
-    /// ([`WalkForm::Lists`]).
-    pub(crate) crossing: Vec<FoundEntity>,
+    /// The entities found, in slot order, with their row hints and whether their leaf
+    /// crosses a plane ([`WalkForm::Lists`]).
+    pub(crate) found: Vec<FoundEntity>,
     /// Tree slots a tree proved inside ([`WalkForm::Bits`]).
     pub(crate) inside_bits: SlotBits,
     /// Tree slots whose leaf crosses a plane ([`WalkForm::Bits`]).
@@ -55,8 +52,7 @@ impl ViewWalk {
     pub(crate) fn restart(&mut self, planes: [Vec4; 6], form: WalkForm) {
         self.planes = Some(planes);
         self.form = form;
-        self.inside.clear();
-        self.crossing.clear();
+        self.found.clear();
         self.inside_bits.clear();
         self.crossing_bits.clear();
     }
