@@ -2,7 +2,7 @@
 //! spread over the compute task pool when they are many.
 
 use super::class_lists::ClassLists;
-use super::slot_order::{SlotKey, prefetch_entry};
+use super::slot_order::{LOOKUP_AHEAD, SlotKey, prefetch_entry};
 use super::system::ViewFilter;
 use super::table_rows::{
     BoundsColumns, DecideColumns, DecideTally, ExactTest, FoundEntity, SlotRows,
@@ -23,9 +23,6 @@ const MIN_PART: usize = 2_048;
 /// How many entities ahead of its decision an entity's rows are prefetched: enough
 /// decisions to cover a memory latency.
 const ROWS_AHEAD: usize = 16;
-
-/// How many slots ahead of its lookup a slot's entity and row hint are prefetched.
-const SLOTS_AHEAD: usize = 64;
 
 /// A fresh walk's finds, to be turned into the view's list of [`FoundEntity`] as they are
 /// decided.
@@ -62,7 +59,7 @@ pub(crate) fn decide_found(
     let (Some(columns), Some(bounds)) = (DecideColumns::gather(pass.deciding, entities), &bounds)
     else {
         if let Some(fresh) = &fresh {
-            fill_from_keys(found, &fresh);
+            fill_from_keys(found, fresh);
         }
         decide_by_lookup(pass, found);
         return 0;
@@ -188,12 +185,12 @@ fn decide_part(
 }
 
 /// Fills `part` from `fresh.keys` (as many), each slot's entity and row hint prefetched
-/// [`SLOTS_AHEAD`] keys earlier. Why: ascending slots are still scattered through a large
+/// [`LOOKUP_AHEAD`] keys earlier. Why: ascending slots are still scattered through a large
 /// world's slot arrays (a view's slab of a grid is a few slots of every row), too far apart
 /// for the hardware prefetcher; waiting on each lookup was most of the ordering's time.
 fn fill_from_keys(part: &mut [FoundEntity], fresh: &FreshFinds<'_>) {
     for (i, (item, key)) in part.iter_mut().zip(fresh.keys).enumerate() {
-        if let Some(ahead) = fresh.keys.get(i + SLOTS_AHEAD) {
+        if let Some(ahead) = fresh.keys.get(i + LOOKUP_AHEAD) {
             prefetch_entry(fresh.slot_entities, ahead.slot());
             fresh.slot_rows.prefetch(ahead.slot());
         }
