@@ -56,8 +56,10 @@ pub(crate) fn decide_found(
         found.resize(fresh.keys.len(), FoundEntity::VACANT);
     }
     let bounds = BoundsColumns::gather(pass.bounds, entities);
-    let (Some(columns), Some(bounds)) = (DecideColumns::gather(pass.deciding, entities), &bounds)
-    else {
+    let (Some(columns), Some(bounds)) = (
+        DecideColumns::gather(pass.deciding, entities, pass.filter),
+        &bounds,
+    ) else {
         if let Some(fresh) = &fresh {
             fill_from_keys(found, fresh);
         }

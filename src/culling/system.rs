@@ -243,9 +243,10 @@ pub(crate) fn cull_views_with_trees(
             ranges,
         };
         // Decisions read the visibility components through a narrow query, and the bounds
-        // through their own query only where a frustum test is needed. Why: a lookup's cost
-        // grows with the width of the query (each component's column is located per lookup),
-        // and most finds are accepted whole.
+        // through their own query only where a frustum test is needed. Both are read as table
+        // columns at remembered rows (see `table_rows`); the per-entity lookups that remain
+        // (a camera without culling, a query that cannot be read as columns) pay for each
+        // component of the query they go through, and most finds are accepted whole.
         let mut deciding = candidates.p1();
         let mut pass = ViewPass {
             filter,
@@ -344,8 +345,25 @@ impl ViewFilter<'_> {
         layers: Option<&RenderLayers>,
         has_range: bool,
     ) -> bool {
-        inherited.get()
-            && self.mask.intersects(layers.unwrap_or_default())
+        inherited.get() && self.admits_in_layers(entity, self.in_layers(layers), has_range)
+    }
+
+    /// Whether the view sees `layers` (an entity without `RenderLayers` is on layer 0).
+    #[inline]
+    pub(crate) fn in_layers(&self, layers: Option<&RenderLayers>) -> bool {
+        self.mask.intersects(layers.unwrap_or_default())
+    }
+
+    /// [`Self::admits`] for an entity visible in the hierarchy, with [`Self::in_layers`]
+    /// already answered (it is the same for every entity of a table without `RenderLayers`).
+    #[inline]
+    pub(crate) fn admits_in_layers(
+        &self,
+        entity: Entity,
+        in_layers: bool,
+        has_range: bool,
+    ) -> bool {
+        in_layers
             && !(has_range
                 && self.ranges.is_some_and(|r| {
                     self.view

@@ -169,6 +169,8 @@ struct TableColumns<'q> {
 /// written by the thread deciding the one entity that row holds.
 pub(crate) struct DecideColumns<'q> {
     tables: ByTable<TableColumns<'q>>,
+    /// Whether the view sees entities without `RenderLayers` (those on layer 0).
+    default_layers_seen: bool,
     last_run: Tick,
     this_run: Tick,
     _query: PhantomData<&'q mut ()>,
@@ -180,11 +182,13 @@ pub(crate) struct DecideColumns<'q> {
 unsafe impl Sync for DecideColumns<'_> {}
 
 impl<'q> DecideColumns<'q> {
-    /// The query's tables as columns; `None` if the query cannot be read contiguously (it
-    /// always can: every component it names is stored in tables).
+    /// The query's tables as columns, for deciding entities for `filter`'s view; `None` if
+    /// the query cannot be read contiguously (it always can: every component it names is
+    /// stored in tables).
     pub(crate) fn gather(
         query: &'q mut Query<DecideItem, DecideFilter>,
         entities: &Entities,
+        filter: ViewFilter<'_>,
     ) -> Option<Self> {
         let mut tables = ByTable::new();
         let (mut last_run, mut this_run) = (Tick::new(0), Tick::new(0));
@@ -211,6 +215,7 @@ impl<'q> DecideColumns<'q> {
         }
         Some(Self {
             tables,
+            default_layers_seen: filter.in_layers(None),
             last_run,
             this_run,
             _query: PhantomData,
@@ -283,8 +288,14 @@ impl<'q> DecideColumns<'q> {
             return;
         };
         let entity = item.entity;
-        let layers = table.layers.map(|layers| &layers[row]);
-        if !filter.admits(entity, &table.inherited[row], layers, table.has_range) {
+        if !table.inherited[row].get() {
+            return;
+        }
+        let in_layers = match table.layers {
+            Some(layers) => filter.in_layers(Some(&layers[row])),
+            None => self.default_layers_seen,
+        };
+        if !filter.admits_in_layers(entity, in_layers, table.has_range) {
             return;
         }
         if item.exact {
