@@ -246,8 +246,10 @@ impl<'q> DecideColumns<'q> {
     }
 
     /// The table and row holding `item`'s entity: its hint if the hint still holds, else
-    /// looked up (and the hint replaced; `refreshed` counts it). `None` if the entity is gone
-    /// or the query does not match it.
+    /// looked up (and the hint replaced; `refreshed` counts replacements). `None` if the entity
+    /// is gone or the query does not match it. An entity the query does not match keeps the
+    /// hint of its real row, so that it is looked up each time but not counted each time (a
+    /// count makes the caller store every hint of the list again).
     #[inline]
     fn locate(
         &self,
@@ -261,11 +263,14 @@ impl<'q> DecideColumns<'q> {
             return Some((table, item.hint.row as usize));
         }
         let location = entities.get(item.entity).ok().flatten()?;
-        item.hint = RowHint {
+        let hint = RowHint {
             table: location.table_id.as_u32(),
             row: location.table_row.index_u32(),
         };
-        *refreshed += 1;
+        if hint != item.hint {
+            item.hint = hint;
+            *refreshed += 1;
+        }
         let table = self.table_at(item.hint)?;
         (table.entities.get(item.hint.row as usize) == Some(&item.entity))
             .then_some((table, item.hint.row as usize))
@@ -411,5 +416,104 @@ impl<'q> BoundsColumns<'q> {
                 prefetch(&aabb[hint.row as usize]);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{DecideColumns, DecideTally, ExactTest, FoundEntity, RowHint};
+    use crate::culling::class_lists::ClassLists;
+    use crate::culling::system::ViewFilter;
+    use crate::culling::tree_pass::{BoundsItem, DecideFilter, DecideItem};
+    use bevy::camera::primitives::Frustum;
+    use bevy::camera::visibility::{NoCpuCulling, NoFrustumCulling, RenderLayers};
+    use bevy::ecs::entity::Entities;
+    use bevy::ecs::system::SystemState;
+    use bevy::prelude::*;
+
+    #[derive(Component)]
+    struct Moved;
+
+    type Params = (
+        Query<'static, 'static, DecideItem, DecideFilter>,
+        Query<'static, 'static, BoundsItem, Without<NoCpuCulling>>,
+        &'static Entities,
+    );
+
+    /// Decides every item once; returns the tally and which entities were visible.
+    fn decide_all(world: &mut World, items: &mut [FoundEntity]) -> (DecideTally, Vec<Entity>) {
+        let mut state = SystemState::<Params>::new(world);
+        let (mut deciding, bounds, entities) = state.get_mut(world).unwrap();
+        let mask = RenderLayers::default();
+        let filter = ViewFilter {
+            view: None,
+            mask: &mask,
+            ranges: None,
+        };
+        let bounds = super::BoundsColumns::gather(&bounds, entities).unwrap();
+        let frustum = Frustum::default();
+        let columns = DecideColumns::gather(&mut deciding, entities, filter).unwrap();
+        let exact = ExactTest {
+            frustum: &frustum,
+            bounds: &bounds,
+        };
+        let (mut lists, mut tally) = (ClassLists::default(), DecideTally::default());
+        for item in items.iter_mut() {
+            columns.decide(item, filter, exact, entities, &mut lists, &mut tally);
+        }
+        drop(columns);
+        let mut visible: Vec<Entity> = deciding
+            .iter()
+            .filter(|(_, _, v, ..)| v.get())
+            .map(|(e, ..)| e)
+            .collect();
+        visible.sort();
+        (tally, visible)
+    }
+
+    /// Rows are found again after entities change tables; an entity the query does not match
+    /// is never decided and does not count as a replaced hint once its hint is its real row.
+    #[test]
+    fn hints_follow_moved_rows_and_settle_for_unmatched_entities() {
+        let mut world = World::new();
+        let spawned: Vec<Entity> = (0..6)
+            .map(|_| {
+                world
+                    .spawn((
+                        InheritedVisibility::VISIBLE,
+                        ViewVisibility::HIDDEN,
+                        GlobalTransform::default(),
+                    ))
+                    .id()
+            })
+            .collect();
+        world.entity_mut(spawned[5]).insert(NoFrustumCulling);
+        let mut expected = spawned[..5].to_vec();
+        expected.sort();
+        let mut items: Vec<FoundEntity> = spawned
+            .iter()
+            .enumerate()
+            .map(|(slot, &entity)| FoundEntity {
+                entity,
+                slot: slot as u32,
+                hint: RowHint::UNKNOWN,
+                exact: false,
+            })
+            .collect();
+        let (tally, visible) = decide_all(&mut world, &mut items);
+        assert_eq!((tally.visible, tally.refreshed), (5, 6));
+        assert_eq!(visible, expected);
+        // Moving entity 1 to another table moves the last row of its table into its place.
+        world.entity_mut(spawned[1]).insert(Moved);
+        for &entity in &spawned {
+            world.entity_mut(entity).insert(ViewVisibility::HIDDEN);
+        }
+        let (tally, visible) = decide_all(&mut world, &mut items);
+        assert_eq!(tally.visible, 5);
+        assert_eq!(visible, expected);
+        // Entity 1 and the one moved into its row (entity 4) are looked up again.
+        assert_eq!(tally.refreshed, 2);
+        let (tally, _) = decide_all(&mut world, &mut items);
+        assert_eq!((tally.visible, tally.refreshed), (5, 0));
     }
 }
