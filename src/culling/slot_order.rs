@@ -100,7 +100,10 @@ impl FoundSlots {
     }
 
     /// Puts the keys in ascending order, that is the slots in ascending order, each with its
-    /// flag. `slot_capacity` bounds the slots pushed (one past the largest).
+    /// flag, and each slot once (a slot pushed twice keeps one key, exact if either was).
+    /// `slot_capacity` bounds the slots pushed (one past the largest). Why each slot once:
+    /// the entities of the keys are decided on several threads, each writing its entity's
+    /// row, so a slot found twice (which a walk never does) must not become two writers.
     fn sort_in_slot_order(&mut self, slot_capacity: usize) {
         let key_words = (slot_capacity * 2).div_ceil(64);
         // The bitset costs a pass over `key_words` words; a sort costs ~log2(n) per key.
@@ -118,6 +121,8 @@ impl FoundSlots {
             self.keys.clear();
             for (w, word) in self.bits[..key_words].iter_mut().enumerate() {
                 let mut b = core::mem::take(word);
+                // Bit 2s is slot s inside, bit 2s + 1 slot s exact: exact wins.
+                b &= !((b & 0xAAAA_AAAA_AAAA_AAAA) >> 1);
                 while b != 0 {
                     self.keys
                         .push(SlotKey(((w as u64) << 6) | u64::from(b.trailing_zeros())));
@@ -126,6 +131,13 @@ impl FoundSlots {
             }
         } else {
             self.keys.sort_unstable();
+            self.keys.dedup_by(|later, kept| {
+                let same = later.slot() == kept.slot();
+                if same {
+                    kept.0 |= later.0 & 1;
+                }
+                same
+            });
         }
     }
 
@@ -205,6 +217,24 @@ mod tests {
                     found.push(slot, exact);
                 }
             }
+        }
+    }
+
+    /// A slot pushed more than once comes out once, exact if any push was, in both orderings.
+    #[test]
+    fn duplicate_slots_come_out_once_exact_winning() {
+        for capacity in [64usize, 1 << 20] {
+            let mut found = FoundSlots::default();
+            for (slot, exact) in [(9u32, false), (3, true), (9, true), (3, false), (5, false)] {
+                found.push(slot, exact);
+            }
+            found.push(5, false);
+            let got = drain_in_slot_order(&mut found, capacity);
+            assert_eq!(
+                got,
+                [(3, true), (5, false), (9, true)],
+                "capacity {capacity}"
+            );
         }
     }
 
