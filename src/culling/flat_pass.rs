@@ -1,7 +1,7 @@
 //! The flat pass: every cullable entity once, in table order and in parallel, as Bevy's own
 //! `check_visibility_cpu_culling` goes, for views that see most of the world.
 
-use super::class_lists::ClassLists;
+use super::class_lists::{ClassLists, sort_visible};
 use super::system::{ViewFilter, bevy_frustum_test};
 use super::view_walk::ViewWalk;
 use crate::trees::AccelTrees;
@@ -115,7 +115,7 @@ pub(crate) fn flat_pass(
         (visible, tested, accepted) = (visible + v, tested + t, accepted + a);
     }
     for list in visible_entities.entities.values_mut() {
-        list.sort_unstable();
+        sort_visible(list);
     }
     (visible, tested, accepted)
 }

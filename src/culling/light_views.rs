@@ -8,6 +8,7 @@
 //! ([`super::light_verdicts`]). The walks ([`super::light_walks`]) drop only what Bevy's
 //! tests would drop, and settle only what they would pass, so the results are Bevy's.
 
+use super::class_lists::sort_visible;
 use super::light_verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS, unpack};
 use super::light_walks::{LightCandidates, ViewKey, light_planes};
 use super::system::{CullingStats, ViewFilter};
@@ -184,7 +185,7 @@ fn decide_lists(
             }
             found += core::mem::take(placed);
         }
-        lists.iter_mut().for_each(|list| list.sort_unstable());
+        lists.iter_mut().for_each(|list| sort_visible(list));
         found
     } else {
         // The walk's masks settle the tests where they can (see `light_verdicts`); a view with
@@ -210,7 +211,7 @@ fn decide_lists(
                 view_visibility.set_visible();
             }
         }
-        lists.iter_mut().for_each(|list| list.sort_unstable());
+        lists.iter_mut().for_each(|list| sort_visible(list));
         candidates.walked_len()
     }
 }

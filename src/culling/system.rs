@@ -1,7 +1,7 @@
 //! The culling system: trees for the entities they hold, Bevy's tests for the rest.
 
 use super::bevy_rounding::walk_frustum_for_bevy;
-use super::class_lists::ClassLists;
+use super::class_lists::{ClassLists, sort_visible};
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
 use super::found_pass::{FreshFinds, decide_found};
 use super::slot_order::FoundSlots;
@@ -311,10 +311,10 @@ pub(crate) fn cull_views_with_trees(
         s.visible += visible;
         s.tested += tested;
         class_lists.flush_into(&mut visible_entities);
-        // Bevy diffs these lists in O(n) and needs them sorted (they are nearly sorted
-        // already; the sort finds the runs in linear time).
+        // Bevy diffs these lists in O(n) and needs them sorted (they are a few sorted runs
+        // already; see `sort_visible`).
         for list in visible_entities.entities.values_mut() {
-            list.sort_unstable();
+            sort_visible(list);
         }
     }
     visible_fraction.retain(|view, _| views.contains(*view));
