@@ -42,8 +42,7 @@ fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
 fn populate(app: &mut App, seed: u64, marked: bool) -> Vec<Entity> {
     let mut rng = Rng(seed);
     let world = app.world_mut();
-    let mut class = VisibilityClass::default();
-    class.push(TypeId::of::<Drawable>());
+    let class = drawable_class();
     let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
     let moving_parent = world
         .spawn((Transform::from_xyz(5.0, 0.0, 0.0), Visibility::Visible))
@@ -130,6 +129,29 @@ fn visible_sets(app: &mut App, entities: &[Entity]) -> (Vec<Vec<usize>>, Vec<Opt
         .map(|&e| world.get::<ViewVisibility>(e).map(|v| v.get()))
         .collect();
     (lists, flags)
+}
+
+/// The visibility class of `Drawable` entities.
+fn drawable_class() -> VisibilityClass {
+    let mut class = VisibilityClass::default();
+    class.push(TypeId::of::<Drawable>());
+    class
+}
+
+/// A visible `Drawable` cube of half side `half` at `at`.
+fn spawn_drawable<'w>(
+    world: &'w mut World,
+    class: &VisibilityClass,
+    at: Vec3,
+    half: f32,
+) -> EntityWorldMut<'w> {
+    world.spawn((
+        Transform::from_translation(at),
+        Visibility::Inherited,
+        class.clone(),
+        Drawable,
+        Aabb::from_min_max(Vec3::splat(-half), Vec3::splat(half)),
+    ))
 }
 
 /// A marker that moves an entity to another table when inserted or removed.
@@ -340,20 +362,13 @@ fn check_camera_paths(variant: Variant) {
 #[test]
 fn many_entities_inside_decided_in_parts_equal_bevys() {
     const SIDE: usize = 40;
-    let mut class = VisibilityClass::default();
-    class.push(TypeId::of::<Drawable>());
+    let class = drawable_class();
     let grid = |app: &mut App| -> Vec<Entity> {
         let world = app.world_mut();
         let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
         (0..SIDE * SIDE * SIDE)
             .map(|i| {
-                let mut e = world.spawn((
-                    Transform::from_translation(grid_point(i, SIDE)),
-                    Visibility::Inherited,
-                    class.clone(),
-                    Drawable,
-                    Aabb::from_min_max(Vec3::splat(-0.4), Vec3::splat(0.4)),
-                ));
+                let mut e = spawn_drawable(world, &class, grid_point(i, SIDE), 0.4);
                 match i % 13 {
                     0 => {
                         e.insert(ChildOf(hidden_parent));
@@ -455,19 +470,12 @@ fn many_entities_inside_decided_in_parts_equal_bevys() {
 fn visible_sets_equal_bevys_with_ranges_and_opt_outs() {
     use bevy::camera::visibility::{NoCpuCulling, VisibilityRange, VisibilityRangePlugin};
     const SIDE: usize = 16;
-    let mut class = VisibilityClass::default();
-    class.push(TypeId::of::<Drawable>());
+    let class = drawable_class();
     let grid = |app: &mut App| -> Vec<Entity> {
         let world = app.world_mut();
         (0..SIDE * SIDE * SIDE)
             .map(|i| {
-                let mut e = world.spawn((
-                    Transform::from_translation(grid_point(i, SIDE)),
-                    Visibility::Inherited,
-                    class.clone(),
-                    Drawable,
-                    Aabb::from_min_max(Vec3::splat(-0.6), Vec3::splat(0.6)),
-                ));
+                let mut e = spawn_drawable(world, &class, grid_point(i, SIDE), 0.6);
                 if i % 5 == 0 {
                     e.insert(VisibilityRange {
                         start_margin: 20.0..26.0,

@@ -66,26 +66,32 @@ pub(crate) fn decide_found(
         decide_by_lookup(pass, found);
         return 0;
     };
-    let exact = ExactTest {
-        frustum: pass.frustum,
-        bounds,
-    };
-    let (tally, in_parts) = decide_list(
-        &columns,
-        pass.filter,
-        exact,
-        found,
-        fresh.as_ref(),
+    let decider = Decider {
+        columns: &columns,
+        filter: pass.filter,
+        exact: ExactTest {
+            frustum: pass.frustum,
+            bounds,
+        },
         entities,
-        pass.lists,
-        part_lists,
-    );
+    };
+    let (tally, in_parts) = decide_list(decider, found, fresh.as_ref(), pass.lists, part_lists);
     let stats = &mut *pass.stats;
     stats.accepted_by_subtree += tally.accepted;
     stats.visible += tally.visible;
     stats.tested += tally.tested;
     stats.views_decided_in_parts += usize::from(in_parts);
     tally.refreshed
+}
+
+/// What every decision of one view reads: the columns, the view's rules, Bevy's frustum test
+/// for the entities crossing a plane, and the entity records for rows that moved.
+#[derive(Clone, Copy)]
+struct Decider<'a, 'q> {
+    columns: &'a DecideColumns<'q>,
+    filter: ViewFilter<'a>,
+    exact: ExactTest<'a, 'q>,
+    entities: &'a Entities,
 }
 
 /// Decides `list` (entities a walk found, each at most once, in slot order), filling `lists`
@@ -100,14 +106,10 @@ pub(crate) fn decide_found(
 /// cores keep twice as many, as Bevy's own culling loop uses the pool. At 1M entities with 5%
 /// in view this took the still view from 3.4-4.0 ms to 1.9-2.6 ms on a 2-core machine, when
 /// decisions still went through entity lookups (BENCHMARKS.md).
-#[allow(clippy::too_many_arguments)]
 fn decide_list(
-    columns: &DecideColumns<'_>,
-    filter: ViewFilter<'_>,
-    exact: ExactTest<'_, '_>,
+    decider: Decider<'_, '_>,
     list: &mut [FoundEntity],
     fresh: Option<&FreshFinds<'_>>,
-    entities: &Entities,
     lists: &mut ClassLists,
     part_lists: &mut Vec<ClassLists>,
 ) -> (DecideTally, bool) {
@@ -119,7 +121,7 @@ fn decide_list(
         (4 * (pool.thread_num() + 1)).min(list.len() / MIN_PART)
     });
     let (Some(pool), true) = (pool, list.len() >= PARALLEL_FROM && parts >= 2) else {
-        let tally = decide_part(columns, filter, exact, list, fresh, entities, lists);
+        let tally = decide_part(decider, list, fresh, lists);
         return (tally, false);
     };
     let part_len = list.len().div_ceil(parts);
@@ -137,17 +139,7 @@ fn decide_list(
                 keys: &f.keys[i * part_len..i * part_len + part.len()],
                 ..*f
             });
-            scope.spawn(async move {
-                decide_part(
-                    columns,
-                    filter,
-                    exact,
-                    part,
-                    fresh.as_ref(),
-                    entities,
-                    part_lists,
-                )
-            });
+            scope.spawn(async move { decide_part(decider, part, fresh.as_ref(), part_lists) });
         }
     });
     for part in part_lists.iter_mut() {
@@ -162,14 +154,17 @@ fn decide_list(
 /// One part, in order, each entity's rows prefetched [`ROWS_AHEAD`] entities earlier; with
 /// `fresh` finds, the part is first filled from them.
 fn decide_part(
-    columns: &DecideColumns<'_>,
-    filter: ViewFilter<'_>,
-    exact: ExactTest<'_, '_>,
+    decider: Decider<'_, '_>,
     part: &mut [FoundEntity],
     fresh: Option<&FreshFinds<'_>>,
-    entities: &Entities,
     lists: &mut ClassLists,
 ) -> DecideTally {
+    let Decider {
+        columns,
+        filter,
+        exact,
+        entities,
+    } = decider;
     if let Some(fresh) = fresh {
         fill_from_keys(part, fresh);
     }
