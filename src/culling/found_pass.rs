@@ -52,7 +52,8 @@ pub(crate) fn decide_found(
     part_lists: &mut Vec<ClassLists>,
 ) -> usize {
     if let Some(fresh) = &fresh {
-        found.clear();
+        // Sized without clearing: every entry is overwritten by the fill, so only a longer
+        // list than last frame's writes its new tail twice.
         found.resize(fresh.keys.len(), FoundEntity::VACANT);
     }
     let bounds = BoundsColumns::gather(pass.bounds, entities);

@@ -49,10 +49,11 @@ impl ViewWalk {
     }
 
     /// Starts a new walk of `planes`, kept in `form`: forgets what the last one found.
+    /// (`found` is not emptied: a walk in list form rewrites it in place, see
+    /// `decide_found`, and one in bit form never reads it.)
     pub(crate) fn restart(&mut self, planes: [Vec4; 6], form: WalkForm) {
         self.planes = Some(planes);
         self.form = form;
-        self.found.clear();
         self.inside_bits.clear();
         self.crossing_bits.clear();
     }
