@@ -82,7 +82,7 @@ pub use validate::DynamicValidationError;
 use crate::bvh::stats::{TreeStats, tree_stats};
 use crate::query::BoundingTree;
 use crate::{Aabb, SahCosts};
-use node::{Arena, FLAG_DIRTY, FLAG_JUMPED, NULL};
+use node::{Arena, MARK_JUMPED, NULL};
 
 /// A dynamic bounding-volume hierarchy keyed by stable [`LeafHandle`]s; see the
 /// [module docs](self).
@@ -101,9 +101,13 @@ pub struct DynamicBvh {
     config: DynamicBvhConfig,
     /// Leaves whose fat box changed since the last refit.
     dirty: Vec<u32>,
-    /// How many of them were flagged `FLAG_JUMPED` (counted as they are flagged, so
-    /// the refit decides on reinsertion without a pass over the dirty list).
+    /// How many of them are marked jumped (counted as they are marked, so the refit decides
+    /// on reinsertion without a pass over the dirty list).
     jumped_pending: usize,
+    /// The current refit epoch: a leaf is in the dirty list while its
+    /// [`dirty_mark`](node::Node::dirty_mark) names this epoch. Never 0 (the mark of a clean
+    /// node).
+    refit_epoch: u32,
     /// Reused by the refit pass: queued internal nodes, then the same sorted by height.
     refit_buckets: Vec<Vec<u32>>,
     refit_sorted: Vec<u32>,
@@ -134,6 +138,7 @@ impl Clone for DynamicBvh {
             config: self.config,
             dirty: self.dirty.clone(),
             jumped_pending: self.jumped_pending,
+            refit_epoch: self.refit_epoch,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
             schedule: refit_schedule::RefitSchedule::default(),
@@ -161,6 +166,7 @@ impl DynamicBvh {
             config,
             dirty: Vec::new(),
             jumped_pending: 0,
+            refit_epoch: 1,
             refit_buckets: Vec::new(),
             refit_sorted: Vec::new(),
             schedule: refit_schedule::RefitSchedule::default(),
@@ -305,14 +311,15 @@ impl DynamicBvh {
         // reinserts such leaves when they are few (see `refit`).
         let jumped = !fat.intersects_aabb(&new_fat);
         self.set_aabb(leaf, new_fat);
+        let listed = self.refit_epoch << 1;
         let n = &mut self.arena.nodes[leaf as usize];
-        if jumped && n.flags & FLAG_JUMPED == 0 {
-            n.flags |= FLAG_JUMPED;
-            self.jumped_pending += 1;
-        }
-        if n.flags & FLAG_DIRTY == 0 {
-            n.flags |= FLAG_DIRTY;
+        if n.dirty_mark & !MARK_JUMPED != listed {
+            n.dirty_mark = listed;
             self.dirty.push(leaf);
+        }
+        if jumped && n.dirty_mark & MARK_JUMPED == 0 {
+            n.dirty_mark |= MARK_JUMPED;
+            self.jumped_pending += 1;
         }
         Ok(true)
     }
@@ -465,6 +472,20 @@ impl DynamicBvh {
             self.tight.resize(self.arena.nodes.len(), Aabb::EMPTY);
         }
         i
+    }
+
+    /// Takes every leaf off the dirty list at once, by starting a new refit epoch: their marks
+    /// name an older one from now on. (Once in 2^31 refits the epochs run out, and the marks
+    /// are cleared one by one instead.)
+    pub(crate) fn end_refit_epoch(&mut self) {
+        self.dirty.clear();
+        self.refit_epoch += 1;
+        if self.refit_epoch > u32::MAX >> 1 {
+            for n in &mut self.arena.nodes {
+                n.dirty_mark = 0;
+            }
+            self.refit_epoch = 1;
+        }
     }
 }
 

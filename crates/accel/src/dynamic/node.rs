@@ -15,13 +15,12 @@ pub(crate) const FREE: u32 = u32::MAX;
 
 /// Set on internal nodes while a refit pass has them queued (so each is queued once).
 pub(crate) const FLAG_QUEUED: u32 = 1;
-/// Set on leaves while they wait in the dirty list (so each is listed once).
-pub(crate) const FLAG_DIRTY: u32 = 2;
 /// Set on leaves placed by a rebuild, so the leaves the rebuild did not know are found.
 pub(crate) const FLAG_PLACED: u32 = 4;
-/// Set on dirty leaves whose new fat box lies clear of the old one (a teleport, a respawn):
-/// the refit decides whether to reinsert them.
-pub(crate) const FLAG_JUMPED: u32 = 8;
+
+/// The low bit of [`Node::dirty_mark`]: the leaf's new fat box lies clear of the old one (a
+/// teleport, a respawn), and the refit decides whether to reinsert it.
+pub(crate) const MARK_JUMPED: u32 = 1;
 
 /// Arena slots are capped below 2^31: the static/dynamic pair tags static node ids with the
 /// top bit, so dynamic ids must leave it clear.
@@ -48,6 +47,13 @@ pub(crate) struct Node {
     pub generation: u32,
     /// `FLAG_*` bits.
     pub flags: u32,
+    /// Whether the leaf waits in the dirty list: `refit epoch << 1 | jumped` while it does
+    /// (the tree's current epoch), 0 or an older epoch's mark otherwise.
+    ///
+    /// An epoch rather than a flag, because a flag must be cleared on every leaf the refit
+    /// reaches: after a mass update the whole-tree refit would write back a line per leaf it
+    /// only needs to read. Bumping the tree's epoch clears every mark at once.
+    pub dirty_mark: u32,
 }
 
 const _: () = assert!(core::mem::size_of::<Node>() == 64 && core::mem::align_of::<Node>() == 64);
@@ -111,6 +117,7 @@ impl Arena {
                 height: FREE,
                 generation: 0,
                 flags: 0,
+                dirty_mark: 0,
             });
             (self.nodes.len() - 1) as u32
         };
@@ -121,6 +128,7 @@ impl Arena {
         n.id = 0;
         n.height = 0;
         n.flags = 0;
+        n.dirty_mark = 0;
         Some(index)
     }
 
@@ -132,6 +140,7 @@ impl Arena {
         n.height = FREE;
         n.children = [NULL; 2];
         n.flags = 0;
+        n.dirty_mark = 0;
         n.aabb = Aabb::EMPTY;
         n.parent = self.free_head;
         self.free_head = index;

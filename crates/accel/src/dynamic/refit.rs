@@ -1,7 +1,7 @@
 //! The batched refit: only the paths above moved leaves, each node once, bottom-up.
 
 use super::DynamicBvh;
-use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_QUEUED, NULL, prefetch_index};
+use super::node::{FLAG_QUEUED, MARK_JUMPED, NULL, prefetch_index};
 
 impl DynamicBvh {
     /// Brings every ancestor of the leaves updated since the last call up to date, and
@@ -51,18 +51,21 @@ impl DynamicBvh {
                 prefetch_index(&self.arena.nodes, self.arena.nodes[ahead as usize].parent);
             }
             let leaf = self.dirty[k];
+            let listed = self.refit_epoch << 1;
             let n = &mut self.arena.nodes[leaf as usize];
             // A leaf removed after its update (its slot free, or reused by a node that was
-            // linked in with its ancestors already fixed) needs nothing.
-            if n.flags & FLAG_DIRTY == 0 || !n.is_leaf() {
+            // linked in with its ancestors already fixed) needs nothing. Jumped leaves get
+            // here only when they were too many to reinsert.
+            if n.dirty_mark & !MARK_JUMPED != listed || !n.is_leaf() {
                 continue;
             }
-            // Jumped leaves get here only when they were too many to reinsert.
-            n.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
+            // Unmarked one by one (unlike the whole-tree refit): a slot freed and listed again
+            // within the batch is in the list twice, and is processed once.
+            n.dirty_mark = 0;
             let p = n.parent;
             queue_node(&mut self.arena.nodes, &mut buckets, p, 1);
         }
-        self.dirty.clear();
+        self.end_refit_epoch();
 
         // Rotations read four grandchildren scattered through the arena per node. When most
         // of the tree moved at once they would cost more than the refit itself, and a mass
@@ -133,26 +136,21 @@ impl DynamicBvh {
     /// When most leaves moved, the bucketed refit would queue nearly every internal node and
     /// pay for the flags, the buckets and one parent lookup per node on top of the
     /// recomputation; a depth-first pass would wait on one cache miss per node (the arena's
-    /// order is random after insertions). Leaves' dirty flags are cleared as they are
-    /// reached, so the dirty list itself is never read. No rotations here, for the reason
-    /// given in [`Self::refit`]; the internal-area sum is recomputed from scratch in the same
-    /// pass.
+    /// order is random after insertions). The leaves leave the dirty list by a new refit
+    /// epoch, so neither the list is read nor the leaves written. No rotations here, for the
+    /// reason given in [`Self::refit`]; the internal-area sum is recomputed from scratch in the
+    /// same pass.
     fn refit_whole_tree(&mut self) -> usize {
-        self.dirty.clear();
+        self.end_refit_epoch();
         let mut order = core::mem::take(&mut self.refit_sorted);
         order.clear();
-        if self.root != NULL {
-            let root = &mut self.arena.nodes[self.root as usize];
-            if root.is_leaf() {
-                root.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
-            } else {
-                self.internal_area = self.schedule.replay(
-                    &mut self.arena.nodes,
-                    self.root,
-                    &mut order,
-                    self.config.parallel_refit,
-                );
-            }
+        if self.root != NULL && !self.arena.nodes[self.root as usize].is_leaf() {
+            self.internal_area = self.schedule.replay(
+                &mut self.arena.nodes,
+                self.root,
+                &mut order,
+                self.config.parallel_refit,
+            );
         }
         let touched = order.len();
         self.refit_sorted = order;
@@ -168,17 +166,15 @@ impl DynamicBvh {
                 prefetch_index(&self.arena.nodes, ahead);
             }
             let leaf = self.dirty[k];
+            let listed_jumped = self.refit_epoch << 1 | MARK_JUMPED;
             let n = &mut self.arena.nodes[leaf as usize];
-            if n.flags & FLAG_JUMPED == 0 {
+            if n.dirty_mark != listed_jumped || !n.is_leaf() {
                 continue;
             }
-            n.flags &= !FLAG_JUMPED;
-            if n.is_leaf() && n.flags & FLAG_DIRTY != 0 {
-                // Reinsertion fixes the boxes on both paths: nothing left to refit for it.
-                n.flags &= !FLAG_DIRTY;
-                self.detach(leaf);
-                self.attach(leaf);
-            }
+            // Reinsertion fixes the boxes on both paths: nothing left to refit for it.
+            n.dirty_mark = 0;
+            self.detach(leaf);
+            self.attach(leaf);
         }
     }
 

@@ -28,7 +28,7 @@
 //! schedule; the next whole-tree refit compiles it again. A frame whose motion only refits
 //! (the common case for a crowd that keeps moving) replays it as is.
 
-use super::node::{FLAG_DIRTY, FLAG_JUMPED, NULL, Node};
+use super::node::{NULL, Node};
 use crate::Aabb;
 use crate::prefetch::prefetch_node;
 
@@ -36,10 +36,11 @@ use crate::prefetch::prefetch_node;
 /// Arena slots stay below 2^31 ([`super::node::MAX_NODES`]), so the bit is free.
 const LEAF_CHILD: u32 = 1 << 31;
 
-/// How many entries ahead the replay asks for the nodes it will read and write.
-/// (Distances from 4 to 48 measured alike at 100k leaves: the replay is bound by memory
-/// bandwidth once the loads overlap.)
-const PREFETCH_DISTANCE: usize = 12;
+/// How many entries ahead the replay asks for the nodes it will read and write. At 100k
+/// leaves, on a VM whose 32 MB cache holds the whole arena (`dynamic_timing`, two alternated
+/// rounds): 6 entries 14.5-14.7 ns per leaf, 12 entries 12.0-12.1, 24 entries 11.0-11.2,
+/// 40 entries 9.5-10.4, 64 entries 9.6-11.0, 96 entries 10.9-12.2, 160 entries 12.5-13.2.
+const PREFETCH_DISTANCE: usize = 40;
 
 /// How many queue entries ahead compilation asks for nodes: its steps are short, so it must
 /// look further ahead than the replay to cover a memory latency (~200 ns on the VM).
@@ -67,9 +68,9 @@ pub(super) struct RefitSchedule {
     valid: bool,
     /// Compilation's queue: (arena index, parent entry, child slot).
     queue: Vec<(u32, u32, u8)>,
-    /// Replay scratch, per entry: the box and height just computed.
+    /// Replay scratch, per entry: the box just computed. (Heights are not recomputed: they
+    /// change only with links, and every edit of links keeps them exact.)
     boxes: Vec<Aabb>,
-    heights: Vec<u32>,
 }
 
 impl RefitSchedule {
@@ -149,8 +150,8 @@ impl RefitSchedule {
         self.valid = true;
     }
 
-    /// Recomputes every internal node below `root` (an internal node) from its children,
-    /// clears the leaves' dirty flags, and appends the internal nodes, children before
+    /// Recomputes every internal node below `root` (an internal node) from its children
+    /// (reading the leaves, never writing them), and appends the internal nodes, children before
     /// parents, to `order`. Compiles first if the shape changed since the last replay. With
     /// `parallel` (and the `rayon` feature), large levels run on rayon's pool; the result is
     /// the same bits either way. Returns the sum of the internal nodes' half areas.
@@ -166,12 +167,10 @@ impl RefitSchedule {
         }
         let m = self.internal.len();
         self.boxes.resize(m, Aabb::EMPTY);
-        self.heights.resize(m, 0);
         let shared = SharedReplay {
             nodes: nodes.as_mut_ptr(),
             node_count: nodes.len(),
             boxes: self.boxes.as_mut_ptr(),
-            heights: self.heights.as_mut_ptr(),
             internal: &self.internal,
             children: &self.children,
         };
@@ -191,7 +190,6 @@ impl RefitSchedule {
             + self.children.capacity() * 8
             + self.queue.capacity() * 12
             + self.boxes.capacity() * core::mem::size_of::<Aabb>()
-            + self.heights.capacity() * 4
             + self.levels.capacity() * 4
     }
 }
@@ -199,15 +197,14 @@ impl RefitSchedule {
 /// What one replay shares between the tasks of a level: raw pointers to the arena and the
 /// scratch, because tasks write disjoint entries of both at once.
 ///
-/// Why this is sound: within a level, entry `e` writes only `boxes[e]`, `heights[e]`, its own
-/// arena node and the flags of its leaf children (a leaf has one parent), and reads only
+/// Why this is sound: within a level, entry `e` writes only `boxes[e]`, its own
+/// arena node, and reads only its leaf children (a leaf has one parent) and
 /// entries of the level below, which no task of this level writes. Levels run one after
 /// another.
 struct SharedReplay<'a> {
     nodes: *mut Node,
     node_count: usize,
     boxes: *mut Aabb,
-    heights: *mut u32,
     internal: &'a [u32],
     children: &'a [[u32; 2]],
 }
@@ -261,33 +258,21 @@ impl SharedReplay<'_> {
                     }
                 }
             }
-            let child = |c: u32| -> (Aabb, u32) {
+            let child = |c: u32| -> Aabb {
                 if c & LEAF_CHILD != 0 {
-                    let leaf = node(c & !LEAF_CHILD);
-                    if leaf.flags & (FLAG_DIRTY | FLAG_JUMPED) != 0 {
-                        leaf.flags &= !(FLAG_DIRTY | FLAG_JUMPED);
-                    }
-                    (leaf.aabb, 0)
+                    node(c & !LEAF_CHILD).aabb
                 } else {
                     let c = c as usize;
                     assert!(c < self.internal.len());
                     // SAFETY: in bounds; a deeper level's entry, written before this level.
-                    unsafe { (*self.boxes.add(c), *self.heights.add(c)) }
+                    unsafe { *self.boxes.add(c) }
                 }
             };
             let [a, b] = self.children[e];
-            let (box_a, height_a) = child(a);
-            let (box_b, height_b) = child(b);
-            let aabb = box_a.union(&box_b);
-            let height = 1 + height_a.max(height_b);
+            let aabb = child(a).union(&child(b));
             // SAFETY: `e` is in bounds (it indexes `children`) and only this entry writes it.
-            unsafe {
-                *self.boxes.add(e) = aabb;
-                *self.heights.add(e) = height;
-            }
-            let n = node(self.internal[e]);
-            n.aabb = aabb;
-            n.height = height;
+            unsafe { *self.boxes.add(e) = aabb };
+            node(self.internal[e]).aabb = aabb;
             area += f64::from(aabb.half_area());
         }
         area

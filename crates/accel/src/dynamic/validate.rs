@@ -2,7 +2,7 @@
 //! list and the bookkeeping the quality monitor relies on.
 
 use super::DynamicBvh;
-use super::node::{FLAG_DIRTY, FLAG_JUMPED, FLAG_PLACED, FLAG_QUEUED, NULL};
+use super::node::{FLAG_PLACED, FLAG_QUEUED, NULL};
 use crate::Aabb;
 use crate::bvh::validate::{ValidationError, validate_tree};
 use crate::query::BoundingTree;
@@ -125,8 +125,11 @@ impl DynamicBvh {
                 if n.is_free() {
                     return Err(DynamicValidationError::FreeList(i));
                 }
-                // No update is pending here (checked above), so no leaf may still be marked.
-                if n.flags & (FLAG_QUEUED | FLAG_PLACED | FLAG_DIRTY | FLAG_JUMPED) != 0 {
+                // No update is pending here (checked above), so no leaf may still be marked
+                // dirty, and no mark may name an epoch that has not begun.
+                if n.flags & (FLAG_QUEUED | FLAG_PLACED) != 0
+                    || n.dirty_mark >> 1 >= self.refit_epoch
+                {
                     return Err(DynamicValidationError::StaleFlag(i));
                 }
                 if n.is_internal() {
