@@ -235,7 +235,7 @@ impl DynamicBvh {
         self.root = NULL;
         self.schedule.invalidate();
         self.leaf_count = 0;
-        self.dirty.clear();
+        self.end_refit_epoch();
         self.jumped_pending = 0;
         self.internal_area = 0.0;
         self.leaf_area = 0.0;

@@ -40,6 +40,7 @@ impl DynamicBvh {
         let mut processed = core::mem::take(&mut self.refit_sorted);
         processed.clear();
         let dirty_leaves = self.dirty.len();
+        let listed = self.refit_epoch << 1;
         for k in 0..self.dirty.len() {
             // Software pipelining over scattered nodes: the leaf needed 16 steps from now, and
             // the parent of the one needed 8 steps from now (its leaf asked for 8 steps ago),
@@ -51,7 +52,6 @@ impl DynamicBvh {
                 prefetch_index(&self.arena.nodes, self.arena.nodes[ahead as usize].parent);
             }
             let leaf = self.dirty[k];
-            let listed = self.refit_epoch << 1;
             let n = &mut self.arena.nodes[leaf as usize];
             // A leaf removed after its update (its slot free, or reused by a node that was
             // linked in with its ancestors already fixed) needs nothing. Jumped leaves get
@@ -160,13 +160,13 @@ impl DynamicBvh {
     }
 
     fn reinsert_jumped_leaves(&mut self) {
+        let listed_jumped = self.refit_epoch << 1 | MARK_JUMPED;
         for k in 0..self.dirty.len() {
             // The dirty list is in update order, scattered over the arena.
             if let Some(&ahead) = self.dirty.get(k + 16) {
                 prefetch_index(&self.arena.nodes, ahead);
             }
             let leaf = self.dirty[k];
-            let listed_jumped = self.refit_epoch << 1 | MARK_JUMPED;
             let n = &mut self.arena.nodes[leaf as usize];
             if n.dirty_mark != listed_jumped || !n.is_leaf() {
                 continue;
