@@ -381,6 +381,20 @@ impl AccelTrees {
         }
     }
 
+    /// Asks for what a ray's candidate test reads first of a slot: its record (exact box and
+    /// own space) and its entity. A hint only; see
+    /// [`RayWalk::walk_ray_announcing`](accel::query::RayWalk::walk_ray_announcing), which
+    /// says when.
+    #[inline]
+    pub fn prefetch_candidate(&self, slot: u32) {
+        if let Some(entry) = self.slots.get(slot as usize) {
+            prefetch_all(entry);
+        }
+        if let Some(entity) = self.entities_by_slot.get(slot as usize) {
+            crate::prefetch::prefetch(entity);
+        }
+    }
+
     /// Takes an entity out of its tree. Returns whether it was in one.
     pub(crate) fn remove(&mut self, entity: Entity) -> bool {
         let Some(t) = self.tracked(entity) else {

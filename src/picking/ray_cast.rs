@@ -2,6 +2,7 @@
 
 use super::mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
 use crate::AccelTrees;
+use accel::query::ray_walk::closest_hit_announcing;
 use accel::{
     Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
 };
@@ -277,7 +278,11 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         // The traversal's range shrinks only at blocking hits (the callback returns their
         // distance); other hits are kept without shrinking it, as Bevy keeps collecting past
         // hits whose entity does not pass `early_exit_test`.
-        let blocking = trees.query().cast_ray(&world_ray, |slot, r| {
+        // Where a wide node holds several candidates in range, their slot records are asked
+        // for together: each candidate's test starts with a miss on its record, and those
+        // misses then overlap instead of following one another.
+        let announce = |slot| trees.prefetch_candidate(slot);
+        let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
             // The exact box first: most candidates of a leaf fail it, and they then cost no
             // entity lookup.
             let entry = r.intersect_aabb(&trees.world_bounds(slot))?;

@@ -110,3 +110,64 @@ fn background_ray_snapshot_is_installed_only_if_the_tree_did_not_change() {
         check_queries(&pair, &model, &mut rng, 80.0, 20);
     }
 }
+
+/// Announcing candidates ahead changes nothing the walk visits: the same primitives in the
+/// same order, through the static tree's wide form, the dynamic tree's binary walk and its
+/// wide snapshot; announcements name only primitives the trees hold, and the wide walks do
+/// make them (a hook that never fired would pass the first check vacuously).
+#[test]
+fn announcing_walk_visits_what_the_plain_walk_visits() {
+    use accel::query::RayWalk;
+    use accel::query::ray_walk::closest_hit_announcing;
+    use core::ops::ControlFlow;
+    let mut rng = Rng::new(31);
+    let statics: Vec<Aabb> = (0..2_000).map(|_| random_box(&mut rng, 60.0)).collect();
+    let mut pair = StaticDynamicPair::new(
+        Bvh::build(&statics, &BuildConfig::default()),
+        DynamicBvh::new(),
+    );
+    let dynamics: Vec<Aabb> = (0..1_500).map(|_| random_box(&mut rng, 60.0)).collect();
+    for (i, b) in dynamics.iter().enumerate() {
+        pair.dynamic_mut().insert(10_000 + i as u32, *b).unwrap();
+    }
+    pair.dynamic_mut().maintain();
+    // A visitor that shrinks the range at some hits, so pruning takes part.
+    fn visitor(seen: &mut Vec<u32>) -> impl FnMut(u32, &mut accel::Ray) -> ControlFlow<()> + '_ {
+        move |p, r| {
+            seen.push(p);
+            if p % 3 == 0 {
+                r.t_max = r.t_max.min(r.t_min + (r.t_max - r.t_min) * 0.9);
+            }
+            ControlFlow::Continue(())
+        }
+    }
+    let held = |p: u32| (p as usize) < statics.len() || (10_000..11_500).contains(&p);
+    let mut announced_total = 0;
+    for snapshot in [false, true] {
+        if snapshot {
+            assert!(pair.snapshot_dynamic_for_rays());
+        }
+        for _ in 0..300 {
+            let origin = rng.vec3(-70.0, 70.0);
+            let ray = accel::Ray::new(origin, rng.vec3(-30.0, 30.0) - origin);
+            let (mut plain, mut told, mut announced) = (Vec::new(), Vec::new(), Vec::new());
+            pair.walk_ray(&mut ray.clone(), visitor(&mut plain));
+            pair.walk_ray_announcing(&mut ray.clone(), |p| announced.push(p), visitor(&mut told));
+            assert_eq!(plain, told);
+            assert!(announced.iter().all(|&p| held(p)));
+            announced_total += announced.len();
+            let hit = |p: u32, r: &accel::Ray| {
+                let b = match p.checked_sub(10_000) {
+                    None => statics[p as usize],
+                    Some(d) => dynamics[d as usize],
+                };
+                r.intersect_aabb(&b)
+            };
+            assert_eq!(
+                closest_hit_announcing(&pair, &ray, |_| {}, hit),
+                accel::query::ray_walk::closest_hit(&pair, &ray, hit)
+            );
+        }
+    }
+    assert!(announced_total > 0, "no walk announced a candidate");
+}

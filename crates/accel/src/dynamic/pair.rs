@@ -264,8 +264,16 @@ impl BoundingTree for StaticDynamicPair {
 }
 
 impl RayWalk for StaticDynamicPair {
-    fn walk_ray<V>(&self, ray: &mut Ray, mut visit: V)
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
     where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        self.walk_ray_announcing(ray, |_| {}, visit);
+    }
+
+    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, mut announce: A, mut visit: V)
+    where
+        A: FnMut(u32),
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
         let entry = |bounds: Aabb| ray.intersect_aabb(&bounds).unwrap_or(f32::INFINITY);
@@ -279,26 +287,34 @@ impl RayWalk for StaticDynamicPair {
             flow
         };
         if static_first {
-            self.static_wide.walk_ray(ray, &mut visit);
+            self.static_wide
+                .walk_ray_announcing(ray, &mut announce, &mut visit);
             if !stopped.get() {
-                walk_dynamic(dynamic_wide, &self.dynamic, ray, &mut visit);
+                walk_dynamic(dynamic_wide, &self.dynamic, ray, &mut announce, &mut visit);
             }
         } else {
-            walk_dynamic(dynamic_wide, &self.dynamic, ray, &mut visit);
+            walk_dynamic(dynamic_wide, &self.dynamic, ray, &mut announce, &mut visit);
             if !stopped.get() {
-                self.static_wide.walk_ray(ray, &mut visit);
+                self.static_wide
+                    .walk_ray_announcing(ray, &mut announce, &mut visit);
             }
         }
     }
 }
 
 /// Walks the dynamic tree's ray snapshot when there is one, else the binary tree.
-fn walk_dynamic<V>(wide: Option<&Bvh8>, dynamic: &DynamicBvh, ray: &mut Ray, visit: V)
-where
+fn walk_dynamic<A, V>(
+    wide: Option<&Bvh8>,
+    dynamic: &DynamicBvh,
+    ray: &mut Ray,
+    announce: A,
+    visit: V,
+) where
+    A: FnMut(u32),
     V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
     match wide {
-        Some(wide) => wide.walk_ray(ray, visit),
+        Some(wide) => wide.walk_ray_announcing(ray, announce, visit),
         None => dynamic.walk_ray(ray, visit),
     }
 }

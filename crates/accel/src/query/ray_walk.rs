@@ -16,18 +16,50 @@ pub trait RayWalk {
     fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>;
+
+    /// As [`RayWalk::walk_ray`], and where a node's test finds several leaves in range, first
+    /// calls `announce(primitive)` for every primitive in them, before visiting any.
+    ///
+    /// Why: a visitor whose test reads records of its own at scattered places (an entity's
+    /// transform, a mesh) waits on one cache miss per primitive, in turn. Told the next few
+    /// primitives at once, it can ask for all their records together, and the misses overlap.
+    /// Structures without wide nodes announce nothing (the default).
+    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
+    where
+        A: FnMut(u32),
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        let _ = announce;
+        self.walk_ray(ray, visit);
+    }
 }
 
 /// The closest hit: a hit is kept when it lies in the ray's range and beats the best so far;
 /// the range then shrinks to it, which prunes the rest of the walk.
-pub fn closest_hit<W, F>(walk: &W, ray: &Ray, mut hit: F) -> Option<RayHit>
+pub fn closest_hit<W, F>(walk: &W, ray: &Ray, hit: F) -> Option<RayHit>
 where
     W: RayWalk + ?Sized,
     F: FnMut(u32, &Ray) -> Option<f32>,
 {
+    closest_hit_announcing(walk, ray, |_| {}, hit)
+}
+
+/// [`closest_hit`] over [`RayWalk::walk_ray_announcing`]: `announce` hears of candidates
+/// before `hit` tests them, so it can start loading what `hit` will read.
+pub fn closest_hit_announcing<W, A, F>(
+    walk: &W,
+    ray: &Ray,
+    announce: A,
+    mut hit: F,
+) -> Option<RayHit>
+where
+    W: RayWalk + ?Sized,
+    A: FnMut(u32),
+    F: FnMut(u32, &Ray) -> Option<f32>,
+{
     let mut ray = *ray;
     let mut best: Option<RayHit> = None;
-    walk.walk_ray(&mut ray, |p, ray| {
+    walk.walk_ray_announcing(&mut ray, announce, |p, ray| {
         if let Some(t) = hit(p, ray)
             && t >= ray.t_min
             && t <= ray.t_max

@@ -81,7 +81,15 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        visit_ray(self, ray, visit)
+        visit_ray(self, ray, |_| {}, visit)
+    }
+
+    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
+    where
+        A: FnMut(u32),
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        visit_ray(self, ray, announce, visit)
     }
 }
 

@@ -150,14 +150,21 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 }
 
 /// Visits the leaves the ray reaches, nearer children first, skipping anything that starts
-/// beyond `ray.t_max` (which the visitor may shrink).
+/// beyond `ray.t_max` (which the visitor may shrink). Where a node has more than one leaf in
+/// range, their primitives are announced before any is visited (see
+/// [`RayWalk::walk_ray_announcing`](crate::query::RayWalk::walk_ray_announcing)).
 ///
 /// The loop descends straight into the nearest child and pushes only the others: with one
 /// child hit (the common case deep in a tree) a node costs no stack traffic and no sort
 /// (Embree's BVH-N traversal does the same, Wald et al. 2014).
-pub(super) fn visit_ray<const N: usize, L, F>(tree: &WideBvh<N, L>, ray: &mut Ray, mut visit: F)
-where
+pub(super) fn visit_ray<const N: usize, L, A, F>(
+    tree: &WideBvh<N, L>,
+    ray: &mut Ray,
+    mut announce: A,
+    mut visit: F,
+) where
     L: WideLayout<N>,
+    A: FnMut(u32),
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
     if tree.nodes.is_empty() || !ray.hits_aabb(&tree.bounds) {
@@ -173,6 +180,18 @@ where
         // Leaves first: their hits shrink the range before any subtree is chosen. They are
         // few per node, and visiting them unsorted costs less than sorting them.
         let mut leaf_hits = mask & leaves;
+        // One leaf needs no announcement: its first primitive is visited at once anyway.
+        if leaf_hits.count_ones() > 1 {
+            let mut announced = leaf_hits;
+            while announced != 0 {
+                let slot = announced.trailing_zeros() as usize;
+                announced &= announced - 1;
+                let first = node.child(slot) as usize;
+                for &p in &tree.primitive_indices[first..first + node.count(slot) as usize] {
+                    announce(p);
+                }
+            }
+        }
         while leaf_hits != 0 {
             let slot = leaf_hits.trailing_zeros() as usize;
             leaf_hits &= leaf_hits - 1;

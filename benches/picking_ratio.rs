@@ -1,0 +1,152 @@
+//! `AccelRayCast` on the static tree against Bevy's `MeshRayCast`, timed in alternation on the
+//! same world (the `picking` bench's, 10^4 and 10^5 entities), and the ratio taken round by
+//! round.
+//!
+//! Why a second picking bench: at 10^5 entities a ray of ours is bound by memory latency, and
+//! the other tenants of a shared machine move it by 2x between runs minutes apart, while
+//! `MeshRayCast` streams its boxes and moves by about 10%. Criterion times one contender after
+//! the other, so its ratio mixes two phases of the machine. Here each round times every ray of
+//! ours once, then a slice of the rays with `MeshRayCast`, so both figures of a round come from
+//! the same few hundred milliseconds; the median over the rounds is the figure to quote.
+//!
+//! `cargo bench --profile dev --bench picking_ratio` (`-- 100000` for one size). Two more
+//! arguments show how much of our time is the caches: `between=nothing` runs our passes
+//! back to back (each pass then finds the previous one's lines cached, as in the criterion
+//! bench, which repeats the same 1,024 rays), `between=flush` reads 64 MiB between passes
+//! instead of casting Bevy's rays; the ratio column is meaningful only without them.
+
+use bevy::ecs::system::SystemState;
+use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
+use bevy::prelude::*;
+use bevy_accel::prelude::*;
+use std::hint::black_box;
+use std::time::Instant;
+mod picking_world;
+use picking_world::world;
+
+/// Rays `MeshRayCast` casts per round: at 10^5 entities about 60 ms, so that a round is short
+/// next to the machine's phases and the rounds together cast every ray once.
+const BEVY_RAYS_PER_ROUND: usize = 32;
+
+/// What runs between two passes of ours.
+#[derive(Clone, Copy, PartialEq)]
+enum Between {
+    /// `MeshRayCast`'s slice of the rays: the measurement.
+    Bevy,
+    /// Nothing: our passes run warm.
+    Nothing,
+    /// A 64 MiB read: our passes run cold.
+    Flush,
+}
+
+/// Times of one round, per ray.
+struct Round {
+    accel_us: f64,
+    bevy_us: f64,
+}
+
+impl Round {
+    fn ratio(&self) -> f64 {
+        self.bevy_us / self.accel_us
+    }
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    if values.len() % 2 == 1 {
+        values[mid]
+    } else {
+        (values[mid - 1] + values[mid]) / 2.0
+    }
+}
+
+fn main() {
+    // `cargo bench` passes `--bench`; a number among the arguments picks one size.
+    let sizes: Vec<usize> = std::env::args().filter_map(|a| a.parse().ok()).collect();
+    let sizes = if sizes.is_empty() {
+        vec![10_000, 100_000]
+    } else {
+        sizes
+    };
+    let between = if std::env::args().any(|a| a == "between=nothing") {
+        Between::Nothing
+    } else if std::env::args().any(|a| a == "between=flush") {
+        Between::Flush
+    } else {
+        Between::Bevy
+    };
+    let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
+    for n in sizes {
+        let (mut app, rays) = world(n, true, true);
+        let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
+        let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
+        let world = app.world();
+        let mut accel = ours.get(world).expect("AccelRayCast is available");
+        let mut mesh = bevy.get(world).expect("MeshRayCast is available");
+
+        // Both must see the same world: the nearest hit of every ray agrees (the equivalence
+        // tests check far more; this guards the bench against timing a broken setup).
+        let agree = rays
+            .iter()
+            .filter(|&&ray| {
+                let a = accel.cast_ray(ray, &settings).first().map(|h| h.0);
+                let b = mesh.cast_ray(ray, &settings).first().map(|h| h.0);
+                a == b
+            })
+            .count();
+        let with_hit = rays
+            .iter()
+            .filter(|&&ray| !accel.cast_ray(ray, &settings).is_empty())
+            .count();
+        println!(
+            "\n{n} static entities, {} rays: nearest hits agree on {agree}, {with_hit} rays hit",
+            rays.len()
+        );
+
+        let rounds_per_sweep = rays.len().div_ceil(BEVY_RAYS_PER_ROUND);
+        let mut rounds = Vec::new();
+        for round in 0..3 * rounds_per_sweep {
+            let t = Instant::now();
+            for &ray in &rays {
+                black_box(accel.cast_ray(ray, &settings).len());
+            }
+            let accel_us = t.elapsed().as_secs_f64() * 1e6 / rays.len() as f64;
+            let first = (round % rounds_per_sweep) * BEVY_RAYS_PER_ROUND;
+            let slice = &rays[first..(first + BEVY_RAYS_PER_ROUND).min(rays.len())];
+            let t = Instant::now();
+            match between {
+                Between::Bevy => {
+                    for &ray in slice {
+                        black_box(mesh.cast_ray(ray, &settings).len());
+                    }
+                }
+                Between::Nothing => {}
+                Between::Flush => {
+                    // Reads more than the caches hold, as a frame's other work would.
+                    let flush = vec![1u8; 64 << 20];
+                    black_box(flush.iter().map(|&b| u64::from(b)).sum::<u64>());
+                }
+            }
+            let bevy_us = t.elapsed().as_secs_f64() * 1e6 / slice.len() as f64;
+            rounds.push(Round { accel_us, bevy_us });
+        }
+        // The first sweep warms caches and the allocator; the ratio is taken over the rest.
+        let timed = &rounds[rounds_per_sweep..];
+        let ratios: Vec<f64> = timed.iter().map(Round::ratio).collect();
+        let (lo, hi) = ratios.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| {
+            (lo.min(r), hi.max(r))
+        });
+        println!(
+            "| {n} | {:.2} us | {:.1} us | **{:.0}x** | {lo:.0}x-{hi:.0}x | {} |",
+            median(timed.iter().map(|r| r.accel_us).collect()),
+            median(timed.iter().map(|r| r.bevy_us).collect()),
+            median(ratios),
+            timed.len()
+        );
+    }
+    println!(
+        "(columns: entities, AccelRayCast static per ray (median of rounds), MeshRayCast per \
+         ray (median), median of the per-round ratios, their range, rounds)"
+    );
+}

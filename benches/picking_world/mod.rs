@@ -1,0 +1,121 @@
+//! The picking benches' world: entities of about 1k-triangle meshes and rays aimed through
+//! them, shared by `picking` (criterion, one contender after another) and `picking_ratio`
+//! (`AccelRayCast` and `MeshRayCast` interleaved).
+
+use bevy::prelude::*;
+use bevy_accel::prelude::*;
+
+#[path = "../../tests/common/mod.rs"]
+mod common;
+use common::headless_app;
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec3(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * 2.0 * s
+    }
+}
+
+/// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
+/// of 1 entity per 64 cubic units, and rays aimed through it. `is_static` marks every entity
+/// [`AccelStatic`] (scenery: the flat static tree) instead of leaving it dynamic (the dynamic
+/// tree, as for entities that may move). `snapshot` lets the plugin copy the dynamic tree
+/// into wide nodes once the world has stood still
+/// ([`AccelSettings::ray_snapshot_after_still_frames`]); without it rays walk the binary
+/// dynamic tree, as they do in any frame after something moved.
+pub fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
+    let mut app = headless_app();
+    app.add_plugins(AccelPickingPlugin);
+    // The copy is made in the frame at every size the bench runs, so that the bench can print
+    // its cost (by default, above 5,000 dynamic entities it is made on another thread).
+    app.insert_resource(AccelSettings {
+        ray_snapshot_after_still_frames: snapshot.then_some(30),
+        ray_snapshot_in_frame_max_entities: usize::MAX,
+        ..default()
+    });
+    app.finish();
+    let meshes = {
+        let mut assets = app.world_mut().resource_mut::<Assets<Mesh>>();
+        [
+            assets.add(Sphere::new(1.0).mesh().uv(32, 17)),
+            assets.add(
+                Torus::new(0.5, 1.0)
+                    .mesh()
+                    .minor_resolution(16)
+                    .major_resolution(32),
+            ),
+        ]
+    };
+    let half = (n as f32 * 64.0).cbrt() / 2.0;
+    let mut rng = Rng(7);
+    let batch: Vec<_> = (0..n)
+        .map(|i| {
+            let t = Transform::from_translation(rng.vec3(half))
+                .with_rotation(Quat::from_rotation_y(rng.next() * 6.0))
+                .with_scale(Vec3::new(
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                    1.0 + rng.next(),
+                ));
+            (t, Mesh3d(meshes[i % 2].clone()))
+        })
+        .collect();
+    if is_static {
+        app.world_mut()
+            .spawn_batch(batch.into_iter().map(|(t, m)| (t, m, AccelStatic)));
+    } else {
+        app.world_mut().spawn_batch(batch);
+    }
+    app.update();
+    app.update();
+    // Steady state: the dynamic tree's first rebuild (started in the background once the
+    // spawns are in) is installed before anything is timed.
+    for _ in 0..500 {
+        let dynamic = app.world().resource::<AccelTrees>().dynamic();
+        if dynamic.is_empty() || (dynamic.rebuild_count() > 0 && !dynamic.rebuild_in_flight()) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        update_reporting_snapshot(&mut app);
+    }
+    // Still frames, after which the plugin copies the dynamic tree for rays (when allowed).
+    for _ in 0..32 {
+        update_reporting_snapshot(&mut app);
+    }
+    let rays = (0..1024)
+        .map(|_| {
+            let origin = rng.vec3(half * 1.2);
+            let target = rng.vec3(half * 0.5);
+            Ray3d::new(origin, Dir3::new(target - origin).unwrap_or(Dir3::X))
+        })
+        .collect();
+    (app, rays)
+}
+
+/// Runs a frame, and prints what the ray snapshot of the dynamic tree cost if the frame took
+/// one.
+fn update_reporting_snapshot(app: &mut App) {
+    let held = |app: &App| {
+        app.world()
+            .resource::<AccelTrees>()
+            .query()
+            .has_dynamic_ray_snapshot()
+    };
+    let before = held(app);
+    app.update();
+    if !before && held(app) {
+        let world = app.world();
+        println!(
+            "{} dynamic entities: ray snapshot taken in {:?}",
+            world.resource::<AccelTrees>().dynamic().len(),
+            world.resource::<AccelStats>().maintain_time
+        );
+    }
+}
