@@ -87,23 +87,27 @@ fn main() {
 
         // Both must see the same world: the nearest hit of every ray agrees (the equivalence
         // tests check far more; this guards the bench against timing a broken setup).
-        let agree = rays
-            .iter()
-            .filter(|&&ray| {
-                let a = accel.cast_ray(ray, &settings).first().map(|h| h.0);
-                let b = mesh.cast_ray(ray, &settings).first().map(|h| h.0);
-                a == b
-            })
-            .count();
-        let with_hit = rays
-            .iter()
-            .filter(|&&ray| !accel.cast_ray(ray, &settings).is_empty())
-            .count();
+        let (mut agree, mut with_hit) = (0, 0);
+        for &ray in &rays {
+            let a = accel.cast_ray(ray, &settings).first().map(|h| h.0);
+            let b = mesh.cast_ray(ray, &settings).first().map(|h| h.0);
+            agree += usize::from(a == b);
+            with_hit += usize::from(a.is_some());
+        }
         println!(
             "\n{n} static entities, {} rays: nearest hits agree on {agree}, {with_hit} rays hit",
             rays.len()
         );
 
+        // Reads more than the caches hold, as a frame's other work would (`between=flush`).
+        let flush = vec![
+            1u8;
+            if between == Between::Flush {
+                64 << 20
+            } else {
+                0
+            }
+        ];
         let rounds_per_sweep = rays.len().div_ceil(BEVY_RAYS_PER_ROUND);
         let mut rounds = Vec::new();
         for round in 0..3 * rounds_per_sweep {
@@ -123,8 +127,6 @@ fn main() {
                 }
                 Between::Nothing => {}
                 Between::Flush => {
-                    // Reads more than the caches hold, as a frame's other work would.
-                    let flush = vec![1u8; 64 << 20];
                     black_box(flush.iter().map(|&b| u64::from(b)).sum::<u64>());
                 }
             }

@@ -181,13 +181,20 @@ pub(super) fn visit_ray<const N: usize, L, A, F>(
         // few per node, and visiting them unsorted costs less than sorting them.
         let mut leaf_hits = mask & leaves;
         // One leaf needs no announcement: its first primitive is visited at once anyway.
+        // `get`, not indexing: with no panic to keep, a walk whose hook does nothing (every
+        // `walk_ray`, the mesh BVHs' rays among them) compiles this loop away.
         if leaf_hits.count_ones() > 1 {
             let mut announced = leaf_hits;
             while announced != 0 {
                 let slot = announced.trailing_zeros() as usize;
                 announced &= announced - 1;
                 let first = node.child(slot) as usize;
-                for &p in &tree.primitive_indices[first..first + node.count(slot) as usize] {
+                let count = node.count(slot) as usize;
+                for &p in tree
+                    .primitive_indices
+                    .get(first..first + count)
+                    .unwrap_or(&[])
+                {
                     announce(p);
                 }
             }
