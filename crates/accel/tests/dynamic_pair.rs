@@ -163,10 +163,14 @@ fn announcing_walk_visits_what_the_plain_walk_visits() {
                 };
                 r.intersect_aabb(&b)
             };
+            // `closest_hit` is `closest_hit_announcing` with a hook that does nothing; this
+            // one listens, so the announcing path is what gets compared.
+            let mut heard = 0usize;
             assert_eq!(
-                closest_hit_announcing(&pair, &ray, |_| {}, hit),
+                closest_hit_announcing(&pair, &ray, |_| heard += 1, hit),
                 accel::query::ray_walk::closest_hit(&pair, &ray, hit)
             );
+            announced_total += heard;
         }
     }
     assert!(announced_total > 0, "no walk announced a candidate");

@@ -315,7 +315,7 @@ fn walk_dynamic<A, V>(
 {
     match wide {
         Some(wide) => wide.walk_ray_announcing(ray, announce, visit),
-        None => dynamic.walk_ray(ray, visit),
+        None => dynamic.walk_ray_announcing(ray, announce, visit),
     }
 }
 
