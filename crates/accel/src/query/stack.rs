@@ -1,20 +1,26 @@
 //! The traversal stack: inline for the depths real trees have, growing for the ones they don't.
 
+use core::mem::MaybeUninit;
+
 /// A LIFO of node ids that lives on the call stack up to `INLINE` entries and spills to the heap
 /// beyond. A ray query that allocated would cost more than the traversal itself (an allocation
 /// is ~20 ns; a shallow traversal is less), yet a dynamic tree or a degenerate build can be far
 /// deeper than any fixed array, and overflowing one must not be possible.
+///
+/// The inline entries start uninitialised: a picking ray starts a walk per candidate mesh as
+/// well as its own, and zeroing 64 entries each time (512 bytes for a wide walk's
+/// `(node, distance)` pairs) cost more than the few entries a shallow walk pushes.
 pub(crate) struct TraversalStack<T: Copy, const INLINE: usize = 64> {
-    inline: [T; INLINE],
+    inline: [MaybeUninit<T>; INLINE],
     len: usize,
     spill: Vec<T>,
 }
 
-impl<T: Copy + Default, const INLINE: usize> TraversalStack<T, INLINE> {
+impl<T: Copy, const INLINE: usize> TraversalStack<T, INLINE> {
     #[inline]
     pub(crate) fn new() -> Self {
         Self {
-            inline: [T::default(); INLINE],
+            inline: [const { MaybeUninit::uninit() }; INLINE],
             len: 0,
             spill: Vec::new(),
         }
@@ -23,7 +29,7 @@ impl<T: Copy + Default, const INLINE: usize> TraversalStack<T, INLINE> {
     #[inline]
     pub(crate) fn push(&mut self, v: T) {
         if self.len < INLINE {
-            self.inline[self.len] = v;
+            self.inline[self.len] = MaybeUninit::new(v);
             self.len += 1;
         } else {
             self.spill.push(v);
@@ -39,6 +45,8 @@ impl<T: Copy + Default, const INLINE: usize> TraversalStack<T, INLINE> {
             return None;
         }
         self.len -= 1;
-        Some(self.inline[self.len])
+        // SAFETY: entries below `len` were written by `push` (and `T: Copy`, so reading one
+        // leaves it valid).
+        Some(unsafe { self.inline[self.len].assume_init() })
     }
 }
