@@ -28,6 +28,17 @@ impl LocalFrame {
         local_from_world: Affine3A::IDENTITY,
         local_bounds: Aabb::EMPTY,
     };
+
+    /// The entity's space to world: the entity's `GlobalTransform` as the sync saw it, taken
+    /// back from its inverse (to within rounding).
+    ///
+    /// Computed on demand, not stored: a ray needs it only for the hits it reports, and a
+    /// second affine in the slot record would make it three cache lines, for the sync to write
+    /// and every candidate to read. Reading the `GlobalTransform` row instead costs a cache
+    /// miss per candidate.
+    pub fn world_from_local(&self) -> Affine3A {
+        self.local_from_world.inverse()
+    }
 }
 
 /// Where a tracked entity lives.
