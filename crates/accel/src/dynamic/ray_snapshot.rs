@@ -73,7 +73,8 @@ impl RaySnapshot {
     }
 
     /// Starts copying `tree` on another thread, unless a copy is held or being made. The
-    /// thread works on a copy of the arena (one `memcpy`), so the tree stays free to change;
+    /// thread works on a copy of the arena and the tight boxes (two `memcpy`s), so the tree
+    /// stays free to change;
     /// a change before [`Self::poll`] installs the result makes it stale, and it is dropped.
     /// Returns whether a copy is held or being made.
     pub fn start(&mut self, tree: &DynamicBvh) -> bool {
@@ -83,10 +84,11 @@ impl RaySnapshot {
         if !Self::can_copy(tree) {
             return false;
         }
-        let (arena, root, leaves) = (tree.arena.nodes.clone(), tree.root, tree.len());
+        let (arena, tight) = (tree.arena.nodes.clone(), tree.tight.clone());
+        let (root, leaves) = (tree.root, tree.len());
         let spawned = std::thread::Builder::new()
             .name("accel-dynamic-ray-snapshot".into())
-            .spawn(move || Bvh8::from_bvh(&flatten(&arena, root, leaves)));
+            .spawn(move || Bvh8::from_bvh(&flatten(&arena, &tight, root, leaves)));
         match spawned {
             Ok(handle) => {
                 self.job = Some(Job {
