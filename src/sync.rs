@@ -272,7 +272,7 @@ fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
 /// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
 /// decayed. Does no tree work in a frame where no dynamic leaf moved, but the first time the
 /// world has been still for [`AccelSettings::ray_snapshot_after_still_frames`] frames it
-/// copies the dynamic tree into wide nodes for rays (above
+/// builds a wide tree over the dynamic entities for rays (above
 /// [`AccelSettings::ray_snapshot_in_frame_max_entities`], on a background thread, installed
 /// by a later still frame).
 pub(crate) fn maintain_trees(

@@ -246,19 +246,20 @@ impl AccelTrees {
         self.pair.dynamic_mut()
     }
 
-    /// Copies the dynamic tree into 8-wide nodes for rays, until it next changes (see
-    /// [`StaticDynamicPair::snapshot_dynamic_for_rays`]). Returns whether a copy is held.
+    /// Builds an 8-wide tree over the dynamic entities for rays, as the static tree is built,
+    /// used until the dynamic tree next changes (see
+    /// [`StaticDynamicPair::snapshot_dynamic_for_rays`]). Returns whether one is held.
     pub(crate) fn snapshot_dynamic_for_rays(&mut self) -> bool {
-        self.pair.snapshot_dynamic_for_rays()
+        self.pair.snapshot_dynamic_for_rays(&entity_tree_config())
     }
 
-    /// Starts the same copy on another thread (see
+    /// Starts the same build on another thread (see
     /// [`StaticDynamicPair::start_dynamic_ray_snapshot`]).
     pub(crate) fn start_dynamic_ray_snapshot(&mut self) -> bool {
-        self.pair.start_dynamic_ray_snapshot()
+        self.pair.start_dynamic_ray_snapshot(&entity_tree_config())
     }
 
-    /// Installs a copy made on another thread if it is done and still matches.
+    /// Installs a snapshot built on another thread if it is done and still matches.
     pub(crate) fn poll_dynamic_ray_snapshot(&mut self) -> bool {
         self.pair.poll_dynamic_ray_snapshot()
     }

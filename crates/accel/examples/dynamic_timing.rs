@@ -19,10 +19,15 @@
 #[path = "../benches/common/dynamic_workload.rs"]
 mod dynamic_workload;
 
-use accel::{Aabb, DynamicBvhConfig};
+use accel::{Aabb, BuildConfig, DynamicBvhConfig, SplitStrategy};
 use dynamic_workload::{Rng, built_tree as tree, scene};
 use glam::Vec3A;
 use std::time::{Duration, Instant};
+
+/// How the ray snapshot is built: with PLOC, as the plugin builds it.
+fn snapshot_config() -> BuildConfig {
+    BuildConfig::with_split(SplitStrategy::PLOC_FASTEST)
+}
 
 const N: usize = 100_000;
 
@@ -130,7 +135,7 @@ fn main() {
         for _ in 0..9 {
             pair.dynamic_mut();
             let s = Instant::now();
-            assert!(pair.snapshot_dynamic_for_rays());
+            assert!(pair.snapshot_dynamic_for_rays(&snapshot_config()));
             times.push(s.elapsed().as_secs_f64() * 1e3);
         }
         println!(
@@ -141,7 +146,7 @@ fn main() {
         for _ in 0..9 {
             pair.dynamic_mut();
             let s = Instant::now();
-            assert!(pair.start_dynamic_ray_snapshot());
+            assert!(pair.start_dynamic_ray_snapshot(&snapshot_config()));
             starts.push(s.elapsed().as_secs_f64() * 1e3);
             while !pair.poll_dynamic_ray_snapshot() {
                 std::thread::yield_now();

@@ -44,7 +44,7 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         // round's edits (the edits of the round before dropped the last one).
         assert!(!pair.has_dynamic_ray_snapshot());
         if round % 2 == 1 {
-            assert!(pair.snapshot_dynamic_for_rays());
+            assert!(pair.snapshot_dynamic_for_rays(&BuildConfig::default()));
         }
         check_queries(&pair, &model, &mut rng, 80.0, 10);
     }
@@ -60,7 +60,7 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
         .collect();
     check_queries(&only_static, &static_model, &mut rng, 80.0, 10);
     let mut only_dynamic = StaticDynamicPair::new(Bvh::default(), d);
-    assert!(only_dynamic.snapshot_dynamic_for_rays());
+    assert!(only_dynamic.snapshot_dynamic_for_rays(&BuildConfig::default()));
     let dyn_model: HashMap<u32, Aabb> = model
         .iter()
         .filter(|(i, _)| **i >= 10_000)
@@ -94,7 +94,7 @@ fn background_ray_snapshot_is_installed_only_if_the_tree_did_not_change() {
     }
     pair.dynamic_mut().maintain();
     for round in 0..6 {
-        assert!(pair.start_dynamic_ray_snapshot());
+        assert!(pair.start_dynamic_ray_snapshot(&BuildConfig::default()));
         let changed = round % 2 == 1;
         if changed {
             // A change while the copy is made: it must be dropped, not installed.
@@ -145,7 +145,7 @@ fn announcing_walk_visits_what_the_plain_walk_visits() {
     let mut announced_total = 0;
     for snapshot in [false, true] {
         if snapshot {
-            assert!(pair.snapshot_dynamic_for_rays());
+            assert!(pair.snapshot_dynamic_for_rays(&BuildConfig::default()));
         }
         for _ in 0..300 {
             let origin = rng.vec3(-70.0, 70.0);

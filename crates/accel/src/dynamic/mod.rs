@@ -58,7 +58,6 @@
 //! ```
 
 mod config;
-mod flatten;
 mod handle;
 mod insert;
 mod node;

@@ -14,7 +14,7 @@ use super::DynamicBvh;
 use super::ray_snapshot::RaySnapshot;
 use crate::bvh::wide::Bvh8;
 use crate::query::{BoundingTree, RayWalk};
-use crate::{Aabb, Bvh, Ray};
+use crate::{Aabb, BuildConfig, Bvh, Ray};
 use core::ops::ControlFlow;
 
 /// Static node ids are tagged with the top bit (dynamic node ids stay below 2^31).
@@ -60,9 +60,9 @@ pub struct StaticDynamicPair {
     /// proves inside with one read instead of two walks down the subtree's edges.
     static_ranges: Vec<[u32; 2]>,
     dynamic: DynamicBvh,
-    /// The dynamic tree collapsed to 8-wide nodes, for rays, while it holds still. Dropped by
-    /// [`Self::dynamic_mut`], the only way to change the dynamic tree, so it never outlives
-    /// the tree it copies.
+    /// An 8-wide tree over the dynamic tree's leaves, for rays, while it holds still. Dropped
+    /// by [`Self::dynamic_mut`], the only way to change the dynamic tree, so it never outlives
+    /// the tree it was built from.
     dynamic_rays: RaySnapshot,
 }
 
@@ -103,19 +103,23 @@ impl StaticDynamicPair {
         &mut self.dynamic
     }
 
-    /// Copies the dynamic tree into 8-wide nodes that rays walk instead of the binary tree,
-    /// until the next [`Self::dynamic_mut`]. Returns whether a snapshot is held afterwards:
-    /// none is made of an empty tree, or of one that needs a refit (its inner boxes may not
-    /// bound its leaves yet).
+    /// Builds an 8-wide tree over the dynamic tree's leaves that rays walk instead of the
+    /// binary tree, until the next [`Self::dynamic_mut`]. Returns whether a snapshot is held
+    /// afterwards: none is made of an empty tree, or of one that needs a refit (a caller
+    /// that forgot `maintain` after its updates).
     ///
     /// Why: a binary tree is deep, and a ray through one visits several times as many nodes
     /// as through an 8-wide one (on the picking bench, 52 binary nodes per ray at 10,000
     /// entities, against about 10 wide ones). Rebuilding the wide form after every change
     /// would cost more than the rays save, so call this when the dynamic tree has stopped
-    /// changing: the copy costs one pass over the tree, and then nothing until it changes.
+    /// changing: it costs one build over the leaves, and then nothing until the tree changes.
+    ///
+    /// The snapshot is built with `config` over the leaves' tight boxes (not the fat ones,
+    /// and not in the dynamic tree's shape, which are both made for motion): rays through it
+    /// are as fast as through a static tree built with `config` over the same boxes.
     ///
     /// ```
-    /// use accel::{Aabb, Bvh, Ray, SpatialQuery};
+    /// use accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
     /// use accel::dynamic::{DynamicBvh, StaticDynamicPair};
     /// use glam::Vec3A;
     ///
@@ -123,23 +127,24 @@ impl StaticDynamicPair {
     /// let b = Aabb::new(Vec3A::splat(1.0), Vec3A::splat(2.0));
     /// pair.dynamic_mut().insert(7, b).unwrap();
     /// pair.dynamic_mut().maintain();
-    /// assert!(pair.snapshot_dynamic_for_rays());
+    /// assert!(pair.snapshot_dynamic_for_rays(&BuildConfig::default()));
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::ONE.normalize());
     /// assert_eq!(pair.cast_ray(&ray, |_, r| r.intersect_aabb(&b)).unwrap().primitive, 7);
     /// pair.dynamic_mut(); // any change of the dynamic tree drops the snapshot
     /// assert!(!pair.has_dynamic_ray_snapshot());
     /// ```
-    pub fn snapshot_dynamic_for_rays(&mut self) -> bool {
-        self.dynamic_rays.make(&self.dynamic)
+    pub fn snapshot_dynamic_for_rays(&mut self, config: &BuildConfig) -> bool {
+        self.dynamic_rays.make(&self.dynamic, config)
     }
 
-    /// [`Self::snapshot_dynamic_for_rays`] on another thread, for trees whose copy would take
-    /// too long for one frame: the caller's cost is one copy of the dynamic tree's node array.
+    /// [`Self::snapshot_dynamic_for_rays`] on another thread, for trees whose snapshot would
+    /// take too long for one frame: the caller's cost is one pass over the dynamic tree's
+    /// nodes, collecting the leaves' ids and tight boxes.
     /// [`Self::poll_dynamic_ray_snapshot`] installs the result when it is done, unless the
     /// dynamic tree changed meanwhile. Returns whether a snapshot is held or being made.
     ///
     /// ```
-    /// use accel::{Aabb, Bvh, Ray, SpatialQuery};
+    /// use accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
     /// use accel::dynamic::{DynamicBvh, StaticDynamicPair};
     /// use glam::Vec3A;
     ///
@@ -147,15 +152,15 @@ impl StaticDynamicPair {
     /// let b = Aabb::new(Vec3A::splat(1.0), Vec3A::splat(2.0));
     /// pair.dynamic_mut().insert(7, b).unwrap();
     /// pair.dynamic_mut().maintain();
-    /// assert!(pair.start_dynamic_ray_snapshot());
+    /// assert!(pair.start_dynamic_ray_snapshot(&BuildConfig::default()));
     /// while !pair.poll_dynamic_ray_snapshot() {
     ///     std::thread::yield_now();
     /// }
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::ONE.normalize());
     /// assert_eq!(pair.cast_ray(&ray, |_, r| r.intersect_aabb(&b)).unwrap().primitive, 7);
     /// ```
-    pub fn start_dynamic_ray_snapshot(&mut self) -> bool {
-        self.dynamic_rays.start(&self.dynamic)
+    pub fn start_dynamic_ray_snapshot(&mut self, config: &BuildConfig) -> bool {
+        self.dynamic_rays.start(&self.dynamic, config)
     }
 
     /// Installs a snapshot finished on another thread (see
