@@ -3,8 +3,8 @@
 //!
 //! `cargo bench -p bevy_accel --bench picking -- --warm-up-time 1 --measurement-time 3`
 //!
-//! A world is built only when a benchmark on it matches the command line's filter (a plain
-//! substring here, where criterion takes a regex). Why: at 10^5 entities the per-ray time
+//! A world is built only when a benchmark on it matches the command line's filter (plain
+//! substrings separated by `|` here, where criterion takes a regex). Why: at 10^5 entities the per-ray time
 //! depends on what the process allocated before the world (the same rays ran about 2x slower
 //! in a world built after two others had been built and dropped than in the first one), so
 //! rows are best compared each from its own run, e.g. `-- "100000/bevy_accel AccelRayCast,
@@ -37,12 +37,37 @@ fn bench_casts(
     });
 }
 
-/// Whether the command line's filter (if any) selects a benchmark among `ids`.
+/// Whether the command line's filter (if any) selects a benchmark among `ids`: the filter's
+/// `|`-separated parts are taken as plain substrings (criterion takes a regex).
 fn wanted(ids: &[String]) -> bool {
-    let filters: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| !a.starts_with('-'))
-        .collect();
+    /// Criterion's options that take a value as the next argument.
+    const WITH_VALUE: &[&str] = &[
+        "--warm-up-time",
+        "--measurement-time",
+        "--sample-size",
+        "--nresamples",
+        "--noise-threshold",
+        "--confidence-level",
+        "--significance-level",
+        "--save-baseline",
+        "--baseline",
+        "--baseline-lenient",
+        "--load-baseline",
+        "--profile-time",
+        "--plotting-backend",
+        "--output-format",
+        "--color",
+        "--format",
+    ];
+    let mut filters = Vec::new();
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        if WITH_VALUE.contains(&arg.as_str()) {
+            args.next();
+        } else if !arg.starts_with('-') {
+            filters.extend(arg.split('|').map(str::to_owned));
+        }
+    }
     filters.is_empty()
         || ids
             .iter()
