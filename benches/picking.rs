@@ -8,8 +8,9 @@
 //! depends on what the process allocated before the world (the same rays ran about 2x slower
 //! in a world built after two others had been built and dropped than in the first one), so
 //! rows are best compared each from its own run, e.g. `-- "100000/bevy_accel AccelRayCast,
-//! static"`, then `-- "100000/bevy_accel AccelRayCast, dynamic entities at rest"`. The last
-//! world serves two rows (the snapshot and `MeshRayCast`), so a ratio comes from one run.
+//! static|100000/bevy MeshRayCast, static"`. `MeshRayCast` is timed on the static world and on
+//! the dynamic one at rest, so each of our rows on those worlds has Bevy's time from the same
+//! world and run.
 
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
@@ -79,44 +80,51 @@ fn picking(c: &mut Criterion) {
     for n in [10_000, 100_000] {
         let mut group = c.benchmark_group(format!("picking/{n}"));
         group.sample_size(10);
-        for (is_static, snapshot, name) in [
-            (true, true, "bevy_accel AccelRayCast, static entities"),
+        // (entities static, snapshot allowed, our row, Bevy's row on the same world)
+        for (is_static, snapshot, name, bevy_name) in [
+            (
+                true,
+                true,
+                "bevy_accel AccelRayCast, static entities",
+                Some("bevy MeshRayCast, static world"),
+            ),
             (
                 false,
                 false,
                 "bevy_accel AccelRayCast, dynamic entities, binary tree",
+                None,
+            ),
+            (
+                false,
+                true,
+                "bevy_accel AccelRayCast, dynamic entities at rest, snapshot",
+                Some("bevy MeshRayCast, dynamic world at rest"),
             ),
         ] {
-            if !wanted(&[format!("picking/{n}/{name}")]) {
+            let ids =
+                [Some(name), bevy_name].map(|row| format!("picking/{n}/{}", row.unwrap_or(name)));
+            if !wanted(&ids) {
                 continue;
             }
             let (mut app, rays) = world(n, is_static, snapshot);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
-            let mut ray_cast = ours.get(app.world()).expect("AccelRayCast is available");
-            assert!(!ray_cast.trees().query().has_dynamic_ray_snapshot());
+            let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
+            let world = app.world();
+            let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
+            assert_eq!(
+                ray_cast.trees().query().has_dynamic_ray_snapshot(),
+                !is_static && snapshot
+            );
             bench_casts(&mut group, name, &rays, |ray| {
                 ray_cast.cast_ray(ray, &settings).len()
             });
+            if let Some(bevy_name) = bevy_name {
+                let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
+                bench_casts(&mut group, bevy_name, &rays, |ray| {
+                    ray_cast.cast_ray(ray, &settings).len()
+                });
+            }
         }
-        const SNAPSHOT: &str = "bevy_accel AccelRayCast, dynamic entities at rest, snapshot";
-        const BEVY: &str = "bevy MeshRayCast";
-        if !wanted(&[SNAPSHOT, BEVY].map(|name| format!("picking/{n}/{name}"))) {
-            group.finish();
-            continue;
-        }
-        let (mut app, rays) = world(n, false, true);
-        let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
-        let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
-        let world = app.world();
-        let mut ray_cast = ours.get(world).expect("AccelRayCast is available");
-        assert!(ray_cast.trees().query().has_dynamic_ray_snapshot());
-        bench_casts(&mut group, SNAPSHOT, &rays, |ray| {
-            ray_cast.cast_ray(ray, &settings).len()
-        });
-        let mut ray_cast = bevy.get(world).expect("MeshRayCast is available");
-        bench_casts(&mut group, BEVY, &rays, |ray| {
-            ray_cast.cast_ray(ray, &settings).len()
-        });
         group.finish();
     }
 }
