@@ -1,4 +1,4 @@
-//! `AccelRayCast` on the static tree against Bevy's `MeshRayCast`, timed in alternation on the
+//! `AccelRayCast` against Bevy's `MeshRayCast`, timed in alternation on the
 //! same world (the `picking` bench's, 10^4 and 10^5 entities), and the ratio taken round by
 //! round.
 //!
@@ -13,7 +13,9 @@
 //! arguments show how much of our time is the caches: `between=nothing` runs our passes
 //! back to back (each pass then finds the previous one's lines cached, as in the criterion
 //! bench, which repeats the same 1,024 rays), `between=flush` reads 64 MiB between passes
-//! instead of casting Bevy's rays; the ratio column is meaningful only without them.
+//! instead of casting Bevy's rays; the ratio column is meaningful only without them. With
+//! `dynamic` the entities are dynamic and at rest, and rays walk the plugin's snapshot of the
+//! still dynamic tree instead of the static tree.
 
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
@@ -76,9 +78,12 @@ fn main() {
     } else {
         Between::Bevy
     };
+    let at_rest = std::env::args().any(|a| a == "dynamic");
     let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
     for n in sizes {
-        let (mut app, rays) = world(n, true, true);
+        // Dynamic entities at rest: rays walk the snapshot the plugin builds of the still
+        // dynamic tree, a default scene's path (entities are dynamic unless marked static).
+        let (mut app, rays) = world(n, !at_rest, true);
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
         let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
         let world = app.world();
@@ -95,7 +100,12 @@ fn main() {
             with_hit += usize::from(a.is_some());
         }
         println!(
-            "\n{n} static entities, {} rays: nearest hits agree on {agree}, {with_hit} rays hit",
+            "\n{n} {} entities, {} rays: nearest hits agree on {agree}, {with_hit} rays hit",
+            if at_rest {
+                "dynamic (at rest)"
+            } else {
+                "static"
+            },
             rays.len()
         );
 
@@ -148,7 +158,7 @@ fn main() {
         );
     }
     println!(
-        "(columns: entities, AccelRayCast static per ray (median of rounds), MeshRayCast per \
+        "(columns: entities, AccelRayCast per ray (median of rounds), MeshRayCast per \
          ray (median), median of the per-round ratios, their range, rounds)"
     );
 }
