@@ -87,15 +87,10 @@ impl RaySnapshot {
         self.generation = self.generation.wrapping_add(1);
     }
 
-    /// Whether `tree` can be snapshot: not empty, and refit.
-    fn can_snapshot(tree: &DynamicBvh) -> bool {
-        !tree.is_empty() && !tree.needs_refit()
-    }
-
     /// Builds the snapshot of `tree` now with `config`, unless one is held. Returns whether
     /// one is held.
     pub fn make(&mut self, tree: &DynamicBvh, config: &BuildConfig) -> bool {
-        if self.wide.is_none() && Self::can_snapshot(tree) {
+        if self.wide.is_none() && !tree.is_empty() {
             self.wide = Some(Bvh8::from_bvh(&LeafBoxes::of(tree).build(config)));
         }
         self.wide.is_some()
@@ -110,7 +105,7 @@ impl RaySnapshot {
         if self.wide.is_some() || self.job.is_some() {
             return true;
         }
-        if !Self::can_snapshot(tree) {
+        if tree.is_empty() {
             return false;
         }
         let leaves = LeafBoxes::of(tree);
