@@ -15,7 +15,10 @@
 //! bench, which repeats the same 1,024 rays), `between=flush` reads 64 MiB between passes
 //! instead of casting Bevy's rays; the ratio column is meaningful only without them. With
 //! `dynamic` the entities are dynamic and at rest, and rays walk the plugin's snapshot of the
-//! still dynamic tree instead of the static tree.
+//! still dynamic tree instead of the static tree. With `moving=P` the entities are dynamic and
+//! P per mille of them take a small step before every round (one `App::update`, which refits
+//! the snapshot); add `nosnapshot` to walk the binary dynamic tree instead, as rays did in
+//! every frame with motion before the snapshot was kept through it.
 
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
@@ -79,32 +82,51 @@ fn main() {
         Between::Bevy
     };
     let at_rest = std::env::args().any(|a| a == "dynamic");
+    let moving_per_mille: Option<usize> =
+        std::env::args().find_map(|a| a.strip_prefix("moving=").and_then(|p| p.parse().ok()));
+    let snapshot = !std::env::args().any(|a| a == "nosnapshot");
     let settings = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
     for n in sizes {
         // Dynamic entities at rest: rays walk the snapshot the plugin builds of the still
         // dynamic tree, a default scene's path (entities are dynamic unless marked static).
-        let (mut app, rays) = world(n, !at_rest, true);
+        let dynamic = at_rest || moving_per_mille.is_some();
+        let (mut app, rays) = world(n, !dynamic, snapshot);
+        if moving_per_mille.is_some() {
+            // The snapshot is kept through motion whatever the ray count: the bench measures
+            // what a ray costs through it (by default it is kept only while rays outnumber the
+            // movers, which 1,024 rays against 1% of 100,000 movers would leave to chance).
+            app.world_mut()
+                .resource_mut::<AccelSettings>()
+                .ray_snapshot_rays_per_mover = 0.0;
+        }
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
         let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
-        let world = app.world();
-        let mut accel = ours.get(world).expect("AccelRayCast is available");
-        let mut mesh = bevy.get(world).expect("MeshRayCast is available");
+        let mut movers = SystemState::<Query<&mut Transform, With<Mesh3d>>>::new(app.world_mut());
+        let mut step_rng = 0x9e37_79b9u32;
+        let (mut frame_us, mut maintain_us, mut sync_us) = (Vec::new(), Vec::new(), Vec::new());
+        let mut snapshot_rounds = 0;
 
         // Both must see the same world: the nearest hit of every ray agrees (the equivalence
         // tests check far more; this guards the bench against timing a broken setup).
         let (mut agree, mut with_hit) = (0, 0);
-        for &ray in &rays {
-            let a = accel.cast_ray(ray, &settings).first().map(|h| h.0);
-            let b = mesh.cast_ray(ray, &settings).first().map(|h| h.0);
-            agree += usize::from(a == b);
-            with_hit += usize::from(a.is_some());
+        {
+            let world = app.world();
+            let mut accel = ours.get(world).expect("AccelRayCast is available");
+            let mut mesh = bevy.get(world).expect("MeshRayCast is available");
+            for &ray in &rays {
+                let a = accel.cast_ray(ray, &settings).first().map(|h| h.0);
+                let b = mesh.cast_ray(ray, &settings).first().map(|h| h.0);
+                agree += usize::from(a == b);
+                with_hit += usize::from(a.is_some());
+            }
         }
         println!(
             "\n{n} {} entities, {} rays: nearest hits agree on {agree}, {with_hit} rays hit",
-            if at_rest {
-                "dynamic (at rest)"
-            } else {
-                "static"
+            match (moving_per_mille, at_rest) {
+                (Some(p), _) if snapshot => format!("dynamic ({p} per mille moving, snapshot)"),
+                (Some(p), _) => format!("dynamic ({p} per mille moving, binary tree)"),
+                (None, true) => "dynamic (at rest)".into(),
+                (None, false) => "static".into(),
             },
             rays.len()
         );
@@ -121,6 +143,32 @@ fn main() {
         let rounds_per_sweep = rays.len().div_ceil(BEVY_RAYS_PER_ROUND);
         let mut rounds = Vec::new();
         for round in 0..3 * rounds_per_sweep {
+            if let Some(per_mille) = moving_per_mille {
+                // Small steps, as a crowd walks: most stay inside their fat boxes.
+                let mut query = movers.get_mut(app.world_mut()).expect("the movers query");
+                for mut transform in query.iter_mut() {
+                    step_rng = step_rng.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    if (step_rng >> 8) as usize % 1000 < per_mille {
+                        let r = (step_rng >> 4) as f32 / (1u32 << 28) as f32;
+                        transform.translation += Vec3::new(r - 0.5, 0.5 - r, r * 0.5) * 0.2;
+                    }
+                }
+                let t = Instant::now();
+                app.update();
+                frame_us.push(t.elapsed().as_secs_f64() * 1e6);
+                let stats = app.world().resource::<AccelStats>();
+                maintain_us.push(stats.maintain_time.as_secs_f64() * 1e6);
+                sync_us.push(stats.sync_time.as_secs_f64() * 1e6);
+                snapshot_rounds += usize::from(
+                    app.world()
+                        .resource::<AccelTrees>()
+                        .query()
+                        .has_dynamic_ray_snapshot(),
+                );
+            }
+            let world = app.world();
+            let mut accel = ours.get(world).expect("AccelRayCast is available");
+            let mut mesh = bevy.get(world).expect("MeshRayCast is available");
             let t = Instant::now();
             for &ray in &rays {
                 black_box(accel.cast_ray(ray, &settings).len());
@@ -156,6 +204,17 @@ fn main() {
             median(ratios),
             timed.len()
         );
+        if !frame_us.is_empty() {
+            println!(
+                "moving: median frame (`App::update`) {:.0} us, of which sync {:.0} us and \
+                 maintenance (refits) {:.0} us; rays walked the snapshot in {snapshot_rounds} \
+                 of {} rounds",
+                median(frame_us.clone()),
+                median(sync_us.clone()),
+                median(maintain_us.clone()),
+                frame_us.len()
+            );
+        }
     }
     println!(
         "(columns: entities, AccelRayCast per ray (median of rounds), MeshRayCast per \

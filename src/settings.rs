@@ -35,20 +35,38 @@ pub struct AccelSettings {
     pub rebuild_threshold: f32,
     /// Run those rebuilds on a background thread and swap the result in when done.
     pub background_rebuild: bool,
-    /// After this many frames in a row in which no tracked entity moved, entered or left,
+    /// After this many frames in a row in which no dynamic entity entered or left the trees,
     /// build an 8-wide tree over the dynamic entities, as the static tree is built, that rays
-    /// (picking) walk until the dynamic tree next changes: a binary tree is deep, and on the
+    /// (picking) walk instead of the binary dynamic tree: a binary tree is deep, and on the
     /// picking bench rays through the snapshot visit as few nodes as through the static tree
     /// (13.4 per ray at 100,000 entities, against 18.1 through a copy of the dynamic tree's
-    /// shape and far more through the binary tree itself). It is built once per still
-    /// period. `None` never builds one.
-    pub ray_snapshot_after_still_frames: Option<u32>,
+    /// shape and far more through the binary tree itself). Motion keeps it: each frame it is
+    /// refit along the paths of the entities that moved. An entity entering or leaving drops
+    /// it. `None` never builds one.
+    pub ray_snapshot_after_stable_frames: Option<u32>,
+    /// Rebuild the ray snapshot after it has been refit for motion in this many frames: a
+    /// refit keeps the tree's shape, which fits the positions it was built for less and less
+    /// as entities wander. The rebuild runs as the first build does (see
+    /// [`ray_snapshot_in_frame_max_entities`](Self::ray_snapshot_in_frame_max_entities)), the
+    /// old snapshot serving rays until the new one is in. `None` never rebuilds it.
+    pub ray_snapshot_rebuild_after_moving_frames: Option<u32>,
+    /// Keep the ray snapshot through motion only while the rays cast per frame are at least
+    /// this many times the dynamic entities that move per frame (both averaged over about ten
+    /// frames); otherwise it is dropped at the first motion, and rebuilt once the world has
+    /// held still for [`ray_snapshot_after_stable_frames`](Self::ray_snapshot_after_stable_frames).
+    ///
+    /// Why: refitting it costs each moving entity its path in the snapshot (0.35-0.85 us per
+    /// mover at 100,000 entities on the bench machine), while a ray walking it instead of the
+    /// binary tree saves about 1.5-2.5 us at 100,000 entities and about 1.3 us at 10,000. A
+    /// game that casts one picking ray per frame over a moving crowd gains nothing from it;
+    /// a ray-traced preview or many line-of-sight casts gain a lot.
+    pub ray_snapshot_rays_per_mover: f32,
     /// Up to this many dynamic entities the ray snapshot is built in the frame that ends the
     /// wait (0.96 ms at 5,000 in a release build of `accel`; the picking bench measured
     /// 2.8-3.2 ms at 10,000 in the dev profile); above, on a background thread, where the
     /// frame pays only for collecting the leaves' boxes (about 1 ms at 100,000), and rays use
-    /// the snapshot from the first still frame after it is done (if nothing changed
-    /// meanwhile).
+    /// the snapshot from the frame after it is done (if no dynamic entity entered or left
+    /// meanwhile; motion meanwhile is refit when it is installed).
     pub ray_snapshot_in_frame_max_entities: usize,
 }
 
@@ -64,9 +82,15 @@ impl Default for AccelSettings {
             optimize_budget_micros: 500,
             rebuild_threshold: 1.3,
             background_rebuild: true,
-            // Half a second at 60 fps: an entity that moves now and then should not make the
-            // plugin copy the tree between its moves.
-            ray_snapshot_after_still_frames: Some(30),
+            // Half a second at 60 fps: a scene that spawns now and then should not make the
+            // plugin build the snapshot between its spawns.
+            ray_snapshot_after_stable_frames: Some(30),
+            // Two seconds at 60 fps; at 100,000 entities a rebuild costs the frame about 1 ms
+            // (collecting the boxes for the background thread).
+            ray_snapshot_rebuild_after_moving_frames: Some(120),
+            // Break-even, from the costs above, is about 0.2-0.6 rays per mover: 1 leaves a
+            // margin for slower memory.
+            ray_snapshot_rays_per_mover: 1.0,
             ray_snapshot_in_frame_max_entities: 5_000,
         }
     }

@@ -270,16 +270,13 @@ fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
 }
 
 /// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
-/// decayed. Does no tree work in a frame where no dynamic leaf moved, but the first time the
-/// world has been still for [`AccelSettings::ray_snapshot_after_still_frames`] frames it
-/// builds a wide tree over the dynamic entities for rays (above
-/// [`AccelSettings::ray_snapshot_in_frame_max_entities`], on a background thread, installed
-/// by a later still frame).
+/// decayed. Does no tree work in a frame where no dynamic leaf moved. Then keeps the dynamic
+/// tree's ray snapshot (see [`keep_ray_snapshot`]).
 pub(crate) fn maintain_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,
     mut stats: ResMut<AccelStats>,
-    mut still_frames: Local<u32>,
+    mut traffic: Local<RayTraffic>,
 ) {
     let config = DynamicBvhConfig {
         margin: settings.fat_margin,
@@ -293,35 +290,108 @@ pub(crate) fn maintain_trees(
     if *trees.dynamic().config() != config {
         trees.dynamic_mut().set_config(config);
     }
-    *still_frames = if stats.updated == 0 && stats.inserted == 0 && stats.removed == 0 {
-        still_frames.saturating_add(1)
-    } else {
-        0
-    };
-    if !trees.dynamic().needs_refit() && stats.inserted == 0 && stats.removed == 0 {
-        stats.maintain_time = Default::default();
-        // Checked through shared access first: a mutable access marks `AccelTrees` changed.
-        let query = trees.query();
-        if query.dynamic_ray_snapshot_pending() {
-            trees.poll_dynamic_ray_snapshot();
-        } else if settings
-            .ray_snapshot_after_still_frames
-            .is_some_and(|after| *still_frames >= after)
-            && !query.has_dynamic_ray_snapshot()
-            && !trees.dynamic().is_empty()
-        {
-            let start = Instant::now();
-            if trees.dynamic().len() <= settings.ray_snapshot_in_frame_max_entities {
-                trees.snapshot_dynamic_for_rays();
-            } else {
-                trees.start_dynamic_ray_snapshot();
-            }
-            stats.maintain_time = start.elapsed();
-        }
+    traffic.observe(&trees, &stats);
+    let start = Instant::now();
+    // Checked through shared access first: a mutable access marks `AccelTrees` changed.
+    let snapshot_moved = trees.query().dynamic_ray_snapshot_needs_refit();
+    let worth_refitting = traffic.rays_pay_for_refits(&settings);
+    if snapshot_moved && !worth_refitting {
+        trees.drop_dynamic_ray_snapshot();
+    }
+    if trees.dynamic().needs_refit() || stats.inserted > 0 || stats.removed > 0 {
+        stats.last_maintain = Some(trees.maintain_dynamic());
+    } else if snapshot_moved && worth_refitting {
+        // Motion inside the fat boxes: nothing for the dynamic tree, but the snapshot's
+        // boxes are tight.
+        trees.refit_dynamic_ray_snapshot();
+    }
+    keep_ray_snapshot(&settings, &mut trees, &traffic);
+    stats.maintain_time = start.elapsed();
+}
+
+/// What the ray snapshot policy watches, frame to frame.
+#[derive(Default)]
+pub(crate) struct RayTraffic {
+    /// Frames in a row in which no dynamic entity entered or left.
+    stable_frames: u32,
+    /// Frames in a row in which, besides, no dynamic entity moved.
+    still_frames: u32,
+    /// Rays cast per frame, averaged over about ten frames.
+    rays: f32,
+    /// Dynamic entities moved per frame, averaged the same way.
+    movers: f32,
+    /// [`StaticDynamicPair::dynamic_update_count`](accel::dynamic::StaticDynamicPair::dynamic_update_count)
+    /// at the last frame.
+    updates_seen: u64,
+}
+
+impl RayTraffic {
+    /// Takes this frame's counts.
+    fn observe(&mut self, trees: &AccelTrees, stats: &AccelStats) {
+        let updates = trees.query().dynamic_update_count();
+        let moved = updates.saturating_sub(self.updates_seen);
+        self.updates_seen = updates;
+        let spawned = stats.inserted > 0 || stats.removed > 0;
+        self.stable_frames = if spawned {
+            0
+        } else {
+            self.stable_frames.saturating_add(1)
+        };
+        self.still_frames = if spawned || moved > 0 {
+            0
+        } else {
+            self.still_frames.saturating_add(1)
+        };
+        // An exponential average: one busy frame does not make the plugin build a snapshot,
+        // one quiet frame does not make it drop one.
+        const WEIGHT: f32 = 0.1;
+        self.rays += WEIGHT * (trees.take_rays_cast() as f32 - self.rays);
+        self.movers += WEIGHT * (moved as f32 - self.movers);
+    }
+
+    /// Whether the rays cast pay for refitting the snapshot after the motion (see
+    /// [`AccelSettings::ray_snapshot_rays_per_mover`]).
+    fn rays_pay_for_refits(&self, settings: &AccelSettings) -> bool {
+        self.rays > 0.0 && self.rays >= settings.ray_snapshot_rays_per_mover * self.movers
+    }
+}
+
+/// Installs, builds or rebuilds the dynamic tree's ray snapshot as the settings ask; touches
+/// `trees` mutably only when it does one of those.
+///
+/// Built once no dynamic entity has entered or left for
+/// [`AccelSettings::ray_snapshot_after_stable_frames`] frames, and either none has moved for
+/// as long or rays are many next to the movers
+/// ([`AccelSettings::ray_snapshot_rays_per_mover`]); refit in every frame with motion while
+/// that holds; rebuilt after [`AccelSettings::ray_snapshot_rebuild_after_moving_frames`]
+/// refits. Above [`AccelSettings::ray_snapshot_in_frame_max_entities`] builds run on a
+/// background thread, installed by a later frame.
+fn keep_ray_snapshot(
+    settings: &AccelSettings,
+    trees: &mut ResMut<AccelTrees>,
+    traffic: &RayTraffic,
+) {
+    let query = trees.query();
+    if query.dynamic_ray_snapshot_pending() {
+        trees.poll_dynamic_ray_snapshot();
         return;
     }
-    let start = Instant::now();
-    let report = trees.dynamic_mut().maintain();
-    stats.maintain_time = start.elapsed();
-    stats.last_maintain = Some(report);
+    if trees.dynamic().is_empty() {
+        return;
+    }
+    let due = match query.dynamic_ray_snapshot_moving_refits() {
+        None => settings
+            .ray_snapshot_after_stable_frames
+            .is_some_and(|after| {
+                traffic.stable_frames >= after
+                    && (traffic.still_frames >= after || traffic.rays_pay_for_refits(settings))
+            }),
+        Some(moving) => settings
+            .ray_snapshot_rebuild_after_moving_frames
+            .is_some_and(|after| moving >= after),
+    };
+    if due {
+        let in_background = trees.dynamic().len() > settings.ray_snapshot_in_frame_max_entities;
+        trees.build_dynamic_ray_snapshot(in_background);
+    }
 }

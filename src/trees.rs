@@ -1,10 +1,11 @@
 //! The trees over the world's entities, and the map between tree slots and entities.
 
 use crate::prefetch::prefetch_all;
-use accel::dynamic::{DynamicBvh, DynamicBvhError, LeafHandle, StaticDynamicPair};
+use accel::dynamic::{DynamicBvh, DynamicBvhError, LeafHandle, MaintainReport, StaticDynamicPair};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::math::Affine3A;
 use bevy::prelude::*;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 /// An entity's own space as the trees last saw it: what an exact ray test needs once a ray
 /// has reached the entity's world box.
@@ -192,6 +193,9 @@ pub struct AccelTrees {
     /// Static boxes by slot (empty for slots that are not static), the static tree's input.
     static_bounds: Vec<Aabb>,
     static_dirty: bool,
+    /// Rays cast through `AccelRayCast` (and other users of [`Self::count_rays`]) since the
+    /// last maintenance: what decides whether the dynamic tree's ray snapshot is worth refitting.
+    rays_cast: AtomicU32,
 }
 
 impl AccelTrees {
@@ -276,17 +280,46 @@ impl AccelTrees {
         self.pair.dynamic_mut()
     }
 
-    /// Builds an 8-wide tree over the dynamic entities for rays, as the static tree is built,
-    /// used until the dynamic tree next changes (see
-    /// [`StaticDynamicPair::snapshot_dynamic_for_rays`]). Returns whether one is held.
-    pub(crate) fn snapshot_dynamic_for_rays(&mut self) -> bool {
-        self.pair.snapshot_dynamic_for_rays(&entity_tree_config())
+    /// Counts `rays` cast through the trees. The plugin keeps the dynamic tree's ray snapshot
+    /// through motion only while rays are many next to the entities that move (see
+    /// [`AccelSettings::ray_snapshot_rays_per_mover`](crate::AccelSettings::ray_snapshot_rays_per_mover));
+    /// `AccelRayCast` counts its rays, and a system walking [`Self::query`] with rays of its
+    /// own should count them too.
+    #[inline]
+    pub fn count_rays(&self, rays: u32) {
+        self.rays_cast.fetch_add(rays, Ordering::Relaxed);
     }
 
-    /// Starts the same build on another thread (see
-    /// [`StaticDynamicPair::start_dynamic_ray_snapshot`]).
-    pub(crate) fn start_dynamic_ray_snapshot(&mut self) -> bool {
-        self.pair.start_dynamic_ray_snapshot(&entity_tree_config())
+    /// The rays counted since the last call, and restarts the count.
+    pub(crate) fn take_rays_cast(&self) -> u32 {
+        self.rays_cast.swap(0, Ordering::Relaxed)
+    }
+
+    /// Drops the dynamic tree's ray snapshot (see
+    /// [`StaticDynamicPair::drop_dynamic_ray_snapshot`]).
+    pub(crate) fn drop_dynamic_ray_snapshot(&mut self) {
+        self.pair.drop_dynamic_ray_snapshot();
+    }
+
+    /// Refits what moved in the dynamic tree and its ray snapshot (see
+    /// [`StaticDynamicPair::maintain_dynamic`]).
+    pub(crate) fn maintain_dynamic(&mut self) -> MaintainReport {
+        self.pair.maintain_dynamic()
+    }
+
+    /// Refits the ray snapshot of the dynamic tree to the entities moved since its last refit
+    /// (see [`StaticDynamicPair::refit_dynamic_ray_snapshot`]).
+    pub(crate) fn refit_dynamic_ray_snapshot(&mut self) {
+        self.pair.refit_dynamic_ray_snapshot();
+    }
+
+    /// Builds an 8-wide tree over the dynamic entities for rays, as the static tree is built,
+    /// now or on another thread, replacing the one held (see
+    /// [`StaticDynamicPair::refresh_dynamic_ray_snapshot`]). Returns whether one is held or
+    /// being built.
+    pub(crate) fn build_dynamic_ray_snapshot(&mut self, in_background: bool) -> bool {
+        self.pair
+            .refresh_dynamic_ray_snapshot(&entity_tree_config(), in_background)
     }
 
     /// Installs a snapshot built on another thread if it is done and still matches.
@@ -325,7 +358,9 @@ impl AccelTrees {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slots[t.slot as usize] = SlotEntry::new(entity, bounds, frame);
-                    match self.pair.dynamic_mut().update(h, bounds) {
+                    // Through the pair, so that the dynamic tree's ray snapshot is refit
+                    // instead of dropped.
+                    match self.pair.update_dynamic(h, bounds) {
                         Ok(true) => Placed::Moved,
                         Ok(false) => Placed::Unchanged,
                         Err(DynamicBvhError::InvalidBounds) => {

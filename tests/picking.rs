@@ -275,7 +275,7 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
         if seed >= 2 {
             // Seeds 2 and 3's rays walk the dynamic tree's wide copy, which the plugin makes
             // once the world has been still long enough; seed 1's walk the binary tree.
-            let wait = AccelSettings::default().ray_snapshot_after_still_frames;
+            let wait = AccelSettings::default().ray_snapshot_after_stable_frames;
             for _ in 0..wait.expect("on by default") {
                 app.update();
             }

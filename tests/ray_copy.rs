@@ -1,5 +1,5 @@
-//! The wide ray copy of a still dynamic tree, through the plugin: made once the world holds
-//! still, dropped when anything moves.
+//! The wide ray snapshot of the dynamic tree, through the plugin: made once no entity has
+//! entered or left for a while, refit when entities move, dropped when one enters or leaves.
 
 use bevy::ecs::system::RunSystemOnce;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCastSettings, RayCastVisibility};
@@ -21,11 +21,16 @@ fn first_hit_down_z(app: &mut App, origin: Vec3) -> Option<Entity> {
         .unwrap()
 }
 
-/// The wide copy of a still dynamic tree is dropped when an entity moves: rays then find it
-/// where it went, not where it was when the copy was made.
+/// The snapshot is refit when an entity moves: rays find it where it went, not where it was
+/// when the snapshot was made, through the snapshot. An entity entering drops it.
 #[test]
 fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
     let mut app = app();
+    // Kept through motion whatever the ray count (the test casts one ray a frame at most).
+    app.insert_resource(AccelSettings {
+        ray_snapshot_rays_per_mover: 0.0,
+        ..default()
+    });
     let cube = app
         .world_mut()
         .resource_mut::<Assets<Mesh>>()
@@ -39,7 +44,7 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         app.world_mut()
             .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
     }
-    let wait = AccelSettings::default().ray_snapshot_after_still_frames;
+    let wait = AccelSettings::default().ray_snapshot_after_stable_frames;
     for _ in 0..wait.expect("on by default") + 2 {
         app.update();
     }
@@ -59,10 +64,146 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         .entity_mut(mover)
         .insert(Transform::from_xyz(0.0, 10.0, 0.0));
     app.update();
-    assert!(!copied(&app));
+    assert!(copied(&app), "motion dropped the snapshot");
     assert_eq!(first_hit_down_z(&mut app, Vec3::new(0.0, 0.0, 5.0)), None);
     assert_eq!(
         first_hit_down_z(&mut app, Vec3::new(0.0, 10.0, 5.0)),
         Some(mover)
     );
+    // Two small steps: the first refattens the box the jump stretched, the second stays
+    // inside the new fat box, where only the snapshot's tight boxes have anything to follow.
+    for y in [10.05, 10.1] {
+        app.world_mut()
+            .entity_mut(mover)
+            .insert(Transform::from_xyz(0.0, y, 0.0));
+        app.update();
+    }
+    assert_eq!(
+        app.world().resource::<AccelStats>().updated,
+        0,
+        "the step left the fat box: this no longer tests the snapshot-only refit"
+    );
+    assert!(copied(&app));
+    // The cube spans 9.6..10.6 in y now (9.55..10.55 before the second step).
+    assert_eq!(first_hit_down_z(&mut app, Vec3::new(0.0, 9.57, 5.0)), None);
+    assert_eq!(
+        first_hit_down_z(&mut app, Vec3::new(0.0, 10.58, 5.0)),
+        Some(mover)
+    );
+
+    let newcomer = app
+        .world_mut()
+        .spawn((Transform::from_xyz(0.0, -10.0, 0.0), Mesh3d(cube)))
+        .id();
+    app.update();
+    assert!(!copied(&app), "an entity entered and the snapshot stayed");
+    assert_eq!(
+        first_hit_down_z(&mut app, Vec3::new(0.0, -10.0, 5.0)),
+        Some(newcomer)
+    );
+}
+
+/// By default the snapshot is kept through motion only while rays outnumber the movers: a
+/// mover in a world where no ray is cast drops it (rays would save less than its refits
+/// cost), and it comes back once the world has held still long enough.
+#[test]
+fn motion_without_rays_drops_the_snapshot_until_the_world_holds_still() {
+    let mut app = app();
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0));
+    let mover = app
+        .world_mut()
+        .spawn((Transform::default(), Mesh3d(cube.clone())))
+        .id();
+    for i in 0..50 {
+        let x = 20.0 + 3.0 * i as f32;
+        app.world_mut()
+            .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
+    }
+    let wait = AccelSettings::default()
+        .ray_snapshot_after_stable_frames
+        .expect("on by default");
+    for _ in 0..wait + 2 {
+        app.update();
+    }
+    let copied = |app: &App| {
+        app.world()
+            .resource::<AccelTrees>()
+            .query()
+            .has_dynamic_ray_snapshot()
+    };
+    assert!(copied(&app));
+    for frame in 0..5 {
+        app.world_mut()
+            .entity_mut(mover)
+            .insert(Transform::from_xyz(0.0, frame as f32, 0.0));
+        app.update();
+        assert!(!copied(&app), "frame {frame}: kept for no rays");
+    }
+    for _ in 0..wait - 1 {
+        app.update();
+        assert!(
+            !copied(&app),
+            "rebuilt before the world held still long enough"
+        );
+    }
+    for _ in 0..2 {
+        app.update();
+    }
+    assert!(copied(&app));
+    assert_eq!(
+        first_hit_down_z(&mut app, Vec3::new(0.0, 4.0, 5.0)),
+        Some(mover)
+    );
+}
+
+/// With the default settings, rays cast in volume (here ten a frame against one mover) keep
+/// the snapshot through motion, refit each frame, and rays find the mover where it went.
+#[test]
+fn many_rays_keep_the_snapshot_through_motion() {
+    let mut app = app();
+    let cube = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0));
+    let mover = app
+        .world_mut()
+        .spawn((Transform::default(), Mesh3d(cube.clone())))
+        .id();
+    for i in 0..50 {
+        let x = 20.0 + 3.0 * i as f32;
+        app.world_mut()
+            .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
+    }
+    let wait = AccelSettings::default()
+        .ray_snapshot_after_stable_frames
+        .expect("on by default");
+    let cast_ten = |app: &mut App, y: f32| {
+        (0..10)
+            .map(|_| first_hit_down_z(app, Vec3::new(0.0, y, 5.0)))
+            .last()
+            .flatten()
+    };
+    for _ in 0..wait + 2 {
+        cast_ten(&mut app, 0.0);
+        app.update();
+    }
+    let copied = |app: &App| {
+        app.world()
+            .resource::<AccelTrees>()
+            .query()
+            .has_dynamic_ray_snapshot()
+    };
+    assert!(copied(&app));
+    for frame in 1..20 {
+        app.world_mut()
+            .entity_mut(mover)
+            .insert(Transform::from_xyz(0.0, frame as f32, 0.0));
+        app.update();
+        assert!(copied(&app), "frame {frame}: dropped despite the rays");
+        assert_eq!(cast_ten(&mut app, frame as f32), Some(mover));
+        assert_eq!(cast_ten(&mut app, frame as f32 - 1.0), None);
+    }
 }

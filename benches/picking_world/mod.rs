@@ -26,17 +26,18 @@ impl Rng {
 /// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
 /// of 1 entity per 64 cubic units, and rays aimed through it. `is_static` marks every entity
 /// [`AccelStatic`] (scenery: the flat static tree) instead of leaving it dynamic (the dynamic
-/// tree, as for entities that may move). `snapshot` lets the plugin copy the dynamic tree
-/// into wide nodes once the world has stood still
-/// ([`AccelSettings::ray_snapshot_after_still_frames`]); without it rays walk the binary
-/// dynamic tree, as they do in any frame after something moved.
+/// tree, as for entities that may move). `snapshot` lets the plugin build a wide ray snapshot
+/// of the dynamic tree once the world has stood still
+/// ([`AccelSettings::ray_snapshot_after_stable_frames`]); without it rays walk the binary
+/// dynamic tree, as they do in a moving world that casts fewer rays than it moves entities
+/// ([`AccelSettings::ray_snapshot_rays_per_mover`]).
 pub fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
     let mut app = headless_app();
     app.add_plugins(AccelPickingPlugin);
     // The copy is made in the frame at every size the bench runs, so that the bench can print
     // its cost (by default, above 5,000 dynamic entities it is made on another thread).
     app.insert_resource(AccelSettings {
-        ray_snapshot_after_still_frames: snapshot.then_some(30),
+        ray_snapshot_after_stable_frames: snapshot.then_some(30),
         ray_snapshot_in_frame_max_entities: usize::MAX,
         ..default()
     });

@@ -281,6 +281,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             ..
         } = self;
         hits.clear();
+        trees.count_rays(1);
         // A NaN or negative `max_distance` gives an empty range: the ray hits nothing.
         let world_ray = Ray::with_range(ray.origin, *ray.direction, 0.0, max_distance);
         // The traversal's range shrinks only at blocking hits (the callback returns their

@@ -1,6 +1,7 @@
 //! The static/dynamic pair queried as one tree: every query against brute force over both
-//! trees, through the dynamic tree and through its 8-wide ray copy, and the copy's background
-//! build installed only while the tree it copied still holds.
+//! trees, through the dynamic tree and through its 8-wide ray snapshot, the snapshot's
+//! background build installed only while the tree's leaves are the ones it was built from,
+//! and the snapshot kept through motion by refits.
 
 mod scenes;
 
@@ -174,4 +175,84 @@ fn announcing_walk_visits_what_the_plain_walk_visits() {
         }
     }
     assert!(announced_total > 0, "no walk announced a candidate");
+}
+
+/// Motion through `update_dynamic` keeps the ray snapshot, refit by `maintain_dynamic`:
+/// queries equal brute force after every round (small moves and jumps, a snapshot rebuilt
+/// now or in the background from time to time, and a background one that moves overtook);
+/// rays never walk a snapshot with updates not yet refit; insertions and removals drop it.
+#[test]
+fn ray_snapshot_survives_motion_and_matches_brute_force() {
+    let mut rng = Rng::new(77);
+    let config = BuildConfig::default();
+    let statics: Vec<Aabb> = (0..1_000).map(|_| random_box(&mut rng, 80.0)).collect();
+    let mut model: HashMap<u32, Aabb> = statics
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (i as u32, *b))
+        .collect();
+    let mut pair = StaticDynamicPair::new(Bvh::build(&statics, &config), DynamicBvh::new());
+    let mut hs = Vec::new();
+    for i in 0..3_000u32 {
+        let b = random_box(&mut rng, 80.0);
+        hs.push(pair.dynamic_mut().insert(10_000 + i, b).unwrap());
+        model.insert(10_000 + i, b);
+    }
+    pair.maintain_dynamic();
+    assert!(pair.snapshot_dynamic_for_rays(&config));
+    for round in 0..24 {
+        // Few movers in most rounds (path refits), most of them in some (a whole sweep).
+        let movers = if round % 6 == 5 { 2_500 } else { 40 };
+        for _ in 0..movers {
+            let k = rng.below(hs.len() as u32) as usize;
+            let id = 10_000 + k as u32;
+            let b = if rng.below(4) == 0 {
+                random_box(&mut rng, 80.0)
+            } else {
+                let step = glam::Vec3A::splat(rng.range(-0.5, 0.5));
+                Aabb::new(model[&id].min + step, model[&id].max + step)
+            };
+            pair.update_dynamic(hs[k], b).unwrap();
+            model.insert(id, b);
+        }
+        assert!(
+            !pair.has_dynamic_ray_snapshot(),
+            "round {round}: a snapshot with updates not refit serves rays"
+        );
+        if round % 8 == 3 {
+            // Started before this round's maintenance: installed later, refit to the moves
+            // made while it was built.
+            assert!(pair.refresh_dynamic_ray_snapshot(&config, true));
+            for _ in 0..50 {
+                let k = rng.below(hs.len() as u32) as usize;
+                let b = random_box(&mut rng, 80.0);
+                pair.update_dynamic(hs[k], b).unwrap();
+                model.insert(10_000 + k as u32, b);
+            }
+            pair.maintain_dynamic();
+            assert!(wait_for_ray_snapshot(&mut pair), "round {round}");
+        } else {
+            pair.maintain_dynamic();
+        }
+        if round % 8 == 7 {
+            assert!(pair.refresh_dynamic_ray_snapshot(&config, false));
+            assert_eq!(pair.dynamic_ray_snapshot_moving_refits(), Some(0));
+        }
+        assert!(pair.has_dynamic_ray_snapshot(), "round {round}");
+        pair.dynamic().validate().unwrap();
+        check_queries(&pair, &model, &mut rng, 80.0, 10);
+    }
+    // An insertion drops it; so does a removal.
+    let b = random_box(&mut rng, 80.0);
+    let extra = pair.dynamic_mut().insert(20_000, b).unwrap();
+    model.insert(20_000, b);
+    pair.maintain_dynamic();
+    assert!(!pair.has_dynamic_ray_snapshot());
+    check_queries(&pair, &model, &mut rng, 80.0, 10);
+    assert!(pair.snapshot_dynamic_for_rays(&config));
+    pair.dynamic_mut().remove(extra).unwrap();
+    model.remove(&20_000);
+    pair.maintain_dynamic();
+    assert!(!pair.has_dynamic_ray_snapshot());
+    check_queries(&pair, &model, &mut rng, 80.0, 10);
 }

@@ -1,36 +1,115 @@
-//! The 8-wide tree that rays walk instead of a still dynamic tree, built in place or on
-//! another thread, and dropped at the tree's next change.
+//! The 8-wide tree that rays walk instead of the binary dynamic tree, built in place or on
+//! another thread, refit along the paths of leaves that move, and dropped at the next
+//! insertion or removal.
 //!
 //! A binary tree is deep: on the picking bench a ray through the dynamic tree of 10,000
 //! entities visits 52 binary nodes, against about 10 wide ones through the static tree.
 //! Building a wide tree after every change would cost more than the rays save, so it is built
-//! once the tree holds still, and kept until it changes.
+//! once the tree's set of leaves holds still, and refit while they move.
 //!
 //! It is a fresh build over the leaves' *tight* boxes, not a copy of the dynamic tree's
-//! shape. Why: the dynamic tree is shaped for motion (fat boxes, insertions, rotations), and
-//! the snapshot never sees motion. On the picking bench at 100,000 entities, rays through a
+//! shape. Why: the dynamic tree is shaped for motion (fat boxes, insertions, rotations),
+//! while the snapshot only refits tight boxes in place and is rebuilt when it has aged. On
+//! the picking bench at 100,000 entities, rays through a
 //! copy of the dynamic tree's shape (even refit to the tight boxes) visited 18.1 wide nodes
 //! and 3.67 candidates each, and ran 1.15-1.8x slower than through a PLOC build over the same
 //! boxes, which visited 13.4 and 3.33, as many as the static tree over the same entities.
 
 use super::DynamicBvh;
-use crate::bvh::wide::Bvh8;
+use crate::bvh::wide::{Bvh8, RefitPaths};
 use crate::{Aabb, BuildConfig, Bvh};
 use std::thread::JoinHandle;
 
-/// A snapshot being built on another thread, of the tree as it was at `generation`.
+/// No leaf at this arena index.
+const NOT_A_LEAF: u32 = u32::MAX;
+
+/// A snapshot being built on another thread, of the tree's leaves as they were at
+/// `generation`, and the leaves that moved since it started (applied when it is installed).
 #[derive(Debug)]
 struct Job {
     generation: u64,
-    handle: JoinHandle<Bvh8>,
+    handle: JoinHandle<Held>,
+    /// Arena indices of leaves updated since the job started.
+    moved: Vec<u32>,
 }
 
-/// The ray snapshot of a dynamic tree, and the count of changes that tells whether a snapshot
-/// built on another thread still matches the tree.
+/// A snapshot and what refits it after motion.
+#[derive(Clone, Debug)]
+struct Held {
+    wide: Bvh8,
+    /// The dynamic tree's arena index of the leaf at each position of the leaf order.
+    leaf_at: Vec<u32>,
+    /// Each arena index's position in the leaf order ([`NOT_A_LEAF`] for other nodes).
+    position_of: Vec<u32>,
+    paths: RefitPaths,
+    /// Refits that found motion since the snapshot was built.
+    moving_refits: u32,
+}
+
+impl Held {
+    fn build(leaves: &LeafBoxes, config: &BuildConfig) -> Self {
+        let mut wide = Bvh8::from_bvh(&Bvh::build(&leaves.boxes, config));
+        let leaf_at: Vec<u32> = wide
+            .primitive_indices
+            .iter()
+            .map(|&k| leaves.arena[k as usize])
+            .collect();
+        for p in &mut wide.primitive_indices {
+            *p = leaves.ids[*p as usize];
+        }
+        let end = leaves.arena.iter().max().map_or(0, |&a| a as usize + 1);
+        let mut position_of = vec![NOT_A_LEAF; end];
+        for (position, &leaf) in leaf_at.iter().enumerate() {
+            position_of[leaf as usize] = position as u32;
+        }
+        Self {
+            paths: RefitPaths::of(&wide),
+            wide,
+            leaf_at,
+            position_of,
+            moving_refits: 0,
+        }
+    }
+
+    /// Refits the boxes above the `moved` leaves (arena indices) to the tree's tight boxes.
+    fn refit(&mut self, tree: &DynamicBvh, moved: &[u32]) {
+        let Self {
+            wide,
+            leaf_at,
+            position_of,
+            paths,
+            ..
+        } = self;
+        let bounds_at = |position: usize| tree.tight[leaf_at[position] as usize];
+        // Past a quarter of the leaves, paths overlap so much that one sweep over every node
+        // is cheaper than climbing them.
+        if moved.len() > leaf_at.len() / 4 {
+            let all = 0..leaf_at.len() as u32;
+            wide.refit_moved(paths, all, bounds_at);
+        } else {
+            // In leaf order, the paths' nodes and the boxes are read front to back (nearby
+            // movers share cache lines, and the hardware prefetcher follows) instead of in
+            // the order the sync met the entities.
+            let mut positions: Vec<u32> = moved.iter().map(|&l| position_of[l as usize]).collect();
+            positions.sort_unstable();
+            wide.refit_moved(paths, positions, bounds_at);
+        }
+        self.moving_refits = self.moving_refits.saturating_add(1);
+    }
+}
+
+/// The ray snapshot of a dynamic tree, and the count of insertions and removals that tells
+/// whether a snapshot built on another thread still holds the tree's leaves.
+///
+/// Motion does not drop it: leaves that move are listed ([`Self::note_moved`]) and the
+/// snapshot is refit along their paths ([`Self::refit`]); rays do not use it in between.
 #[derive(Debug, Default)]
 pub(super) struct RaySnapshot {
-    wide: Option<Bvh8>,
-    /// Bumped at every change of the tree (every mutable access, in fact).
+    held: Option<Held>,
+    /// Arena indices of leaves updated since the held snapshot's last refit.
+    moved: Vec<u32>,
+    /// Bumped at every change of the tree's set of leaves (every mutable access, in fact,
+    /// except updates and maintenance through the pair's own methods).
     generation: u64,
     job: Option<Job>,
 }
@@ -39,40 +118,52 @@ impl Clone for RaySnapshot {
     /// The snapshot is cloned; one still being built is not (the clone builds its own).
     fn clone(&self) -> Self {
         Self {
-            wide: self.wide.clone(),
+            held: self.held.clone(),
+            moved: self.moved.clone(),
             generation: self.generation,
             job: None,
         }
     }
 }
 
-/// A live leaf's id and tight box, in arena order: what a snapshot is built from.
+/// Every live leaf's arena index, id and tight box, in arena order: what a snapshot is built
+/// from.
 struct LeafBoxes {
+    arena: Vec<u32>,
     ids: Vec<u32>,
     boxes: Vec<Aabb>,
 }
 
 impl LeafBoxes {
     fn of(tree: &DynamicBvh) -> Self {
-        let (ids, boxes) = tree.leaves().map(|(_, id, b)| (id, b)).unzip();
-        Self { ids, boxes }
-    }
-
-    /// The binary tree over the boxes, its primitive indices turned into the leaves' ids.
-    fn build(&self, config: &BuildConfig) -> Bvh {
-        let mut bvh = Bvh::build(&self.boxes, config);
-        for p in &mut bvh.primitive_indices {
-            *p = self.ids[*p as usize];
+        let n = tree.len();
+        let mut leaves = Self {
+            arena: Vec::with_capacity(n),
+            ids: Vec::with_capacity(n),
+            boxes: Vec::with_capacity(n),
+        };
+        for (handle, id, bounds) in tree.leaves() {
+            leaves.arena.push(handle.index);
+            leaves.ids.push(id);
+            leaves.boxes.push(bounds);
         }
-        bvh
+        leaves
     }
 }
 
 impl RaySnapshot {
-    /// The snapshot, when one matches the tree.
+    /// The snapshot, when one is held and refit to every update.
     #[inline]
     pub fn wide(&self) -> Option<&Bvh8> {
-        self.wide.as_ref()
+        self.held
+            .as_ref()
+            .filter(|_| self.moved.is_empty())
+            .map(|h| &h.wide)
+    }
+
+    /// Whether a snapshot is held with updates not yet refit.
+    pub fn needs_refit(&self) -> bool {
+        self.held.is_some() && !self.moved.is_empty()
     }
 
     /// Whether a snapshot is being built on another thread.
@@ -80,64 +171,105 @@ impl RaySnapshot {
         self.job.is_some()
     }
 
-    /// The tree is about to change: the snapshot no longer matches, nor will one being built.
+    /// Refits with motion since the held snapshot was built, if one is held.
+    pub fn moving_refits(&self) -> Option<u32> {
+        self.held.as_ref().map(|h| h.moving_refits)
+    }
+
+    /// The tree's set of leaves is about to change: the snapshot no longer matches, nor will
+    /// one being built.
     #[inline]
     pub fn invalidate(&mut self) {
-        self.wide = None;
+        self.held = None;
+        self.moved.clear();
         self.generation = self.generation.wrapping_add(1);
     }
 
-    /// Builds the snapshot of `tree` now with `config`, unless one is held. Returns whether
-    /// one is held.
-    pub fn make(&mut self, tree: &DynamicBvh, config: &BuildConfig) -> bool {
-        if self.wide.is_none() && !tree.is_empty() {
-            self.wide = Some(Bvh8::from_bvh(&LeafBoxes::of(tree).build(config)));
+    /// Leaf `leaf` (an arena index) was given a new tight box.
+    #[inline]
+    pub fn note_moved(&mut self, leaf: u32, leaf_count: usize) {
+        if self.held.is_some() {
+            self.moved.push(leaf);
         }
-        self.wide.is_some()
+        if let Some(job) = &mut self.job
+            && job.moved.len() <= leaf_count
+        {
+            // Past one entry per leaf the install refits everything anyway (see `Held::refit`).
+            job.moved.push(leaf);
+        }
     }
 
-    /// Starts building the snapshot of `tree` on another thread, unless one is held or being
-    /// built. The thread works on a copy of the leaves' ids and tight boxes (one pass over the
-    /// arena here), so the tree stays free to change; a change before [`Self::poll`] installs
-    /// the result makes it stale, and it is dropped. Returns whether a snapshot is held or
-    /// being built.
-    pub fn start(&mut self, tree: &DynamicBvh, config: &BuildConfig) -> bool {
-        if self.wide.is_some() || self.job.is_some() {
+    /// Refits the held snapshot to the leaves updated since its last refit.
+    pub fn refit(&mut self, tree: &DynamicBvh) {
+        if let Some(held) = &mut self.held
+            && !self.moved.is_empty()
+        {
+            held.refit(tree, &self.moved);
+        }
+        self.moved.clear();
+    }
+
+    /// Builds the snapshot of `tree` now with `config`, unless one is held and `replace` is
+    /// false. Returns whether one is held.
+    pub fn make(&mut self, tree: &DynamicBvh, config: &BuildConfig, replace: bool) -> bool {
+        if (replace || self.held.is_none()) && !tree.is_empty() {
+            self.held = Some(Held::build(&LeafBoxes::of(tree), config));
+            self.moved.clear();
+        }
+        self.held.is_some()
+    }
+
+    /// Starts building the snapshot of `tree` on another thread, unless one is being built,
+    /// or one is held and `replace` is false (a held one serves rays until the new one is
+    /// installed). The thread works on a copy of the leaves' arena indices, ids and tight
+    /// boxes (one pass over the arena here), so the tree stays free to change: leaves updated
+    /// before [`Self::poll`] installs the result are refit then, and an insertion or a
+    /// removal makes it stale (it is dropped). Returns whether a snapshot is held or being
+    /// built.
+    pub fn start(&mut self, tree: &DynamicBvh, config: &BuildConfig, replace: bool) -> bool {
+        if self.job.is_some() || (self.held.is_some() && !replace) {
             return true;
         }
         if tree.is_empty() {
-            return false;
+            return self.held.is_some();
         }
         let leaves = LeafBoxes::of(tree);
         let config = *config;
         let spawned = std::thread::Builder::new()
             .name("accel-dynamic-ray-snapshot".into())
-            .spawn(move || Bvh8::from_bvh(&leaves.build(&config)));
+            .spawn(move || Held::build(&leaves, &config));
         match spawned {
             Ok(handle) => {
                 self.job = Some(Job {
                     generation: self.generation,
                     handle,
+                    moved: Vec::new(),
                 });
                 true
             }
-            // No thread to be had: rays keep the binary tree.
-            Err(_) => false,
+            // No thread to be had: rays keep what they have.
+            Err(_) => self.held.is_some(),
         }
     }
 
-    /// Installs a snapshot finished on another thread if the tree has not changed since it
-    /// was started, and drops it otherwise. Does not wait. Returns whether a snapshot is held.
-    pub fn poll(&mut self) -> bool {
+    /// Installs a snapshot finished on another thread if the tree's leaves are the ones it
+    /// was started with, refit to the leaves updated since, and drops it otherwise. Does not
+    /// wait. Returns whether a snapshot is held.
+    pub fn poll(&mut self, tree: &DynamicBvh) -> bool {
         if self.job.as_ref().is_some_and(|job| job.handle.is_finished())
             && let Some(job) = self.job.take()
             // A thread that panicked leaves the binary tree in use.
-            && let Ok(wide) = job.handle.join()
+            && let Ok(mut held) = job.handle.join()
             && job.generation == self.generation
         {
-            self.wide = Some(wide);
+            if !job.moved.is_empty() {
+                held.refit(tree, &job.moved);
+                held.moving_refits = 0;
+            }
+            self.held = Some(held);
+            self.moved.clear();
         }
-        self.wide.is_some()
+        self.held.is_some()
     }
 }
 
@@ -146,7 +278,7 @@ mod tests {
     use super::*;
     use glam::Vec3A;
 
-    /// The snapshot's binary tree holds every live leaf's id exactly once, over its tight box
+    /// The snapshot holds every live leaf's id exactly once, over its tight box
     /// (valid against the id-indexed tight boxes, root their union: a tree over the fat boxes
     /// fails that), also after leaves moved within and out of their fat boxes and some left.
     #[test]
@@ -168,10 +300,10 @@ mod tests {
         let config = BuildConfig::with_split(crate::SplitStrategy::PLOC_FASTEST);
         for round in 0..3 {
             tree.maintain();
-            let bvh = LeafBoxes::of(&tree).build(&config);
-            bvh.validate(&boxes).unwrap();
+            let held = Held::build(&LeafBoxes::of(&tree), &config);
+            held.wide.validate(&boxes).unwrap();
             let union = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
-            assert_eq!(bvh.bounds(), union, "round {round}");
+            assert_eq!(held.wide.bounds(), union, "round {round}");
             // Move a third (small steps stay inside the fat boxes, every tenth jumps away),
             // and take out every 50th.
             for (k, slot) in handles

@@ -28,6 +28,20 @@ pub trait WideLayout<const N: usize>:
     /// of them); unused slots get [`Aabb::EMPTY`].
     fn set_child_boxes(&mut self, boxes: &[Aabb; N]);
 
+    /// Whether [`set_slot_boxes`](Self::set_slot_boxes) can replace some slots and keep the
+    /// others exactly (float boxes can; quantized ones are relative to a frame derived from
+    /// all of them, and re-encoding decoded boxes would grow them at every refit).
+    const SETS_SLOTS_ALONE: bool = false;
+
+    /// Replaces the boxes of the slots in `mask` (bit `s`: slot `s`). Only for layouts with
+    /// [`SETS_SLOTS_ALONE`](Self::SETS_SLOTS_ALONE); the others get every slot's box through
+    /// [`set_child_boxes`](Self::set_child_boxes).
+    #[inline]
+    fn set_slot_boxes(&mut self, mask: u32, boxes: &[Aabb; N]) {
+        debug_assert!(Self::SETS_SLOTS_ALONE || mask == (1 << N) - 1);
+        self.set_child_boxes(boxes);
+    }
+
     /// Node index (interior slot), first primitive slot (leaf) or [`EMPTY_SLOT`].
     fn child(&self, slot: usize) -> u32;
 
@@ -70,6 +84,15 @@ impl<const N: usize> WideLayout<N> for WideNode<N> {
     fn set_child_boxes(&mut self, boxes: &[Aabb; N]) {
         for (slot, b) in boxes.iter().enumerate() {
             self.set_child_aabb(slot, b);
+        }
+    }
+
+    const SETS_SLOTS_ALONE: bool = true;
+
+    #[inline]
+    fn set_slot_boxes(&mut self, mask: u32, boxes: &[Aabb; N]) {
+        for slot in (0..N).filter(|s| mask & (1 << s) != 0) {
+            self.set_child_aabb(slot, &boxes[slot]);
         }
     }
 

@@ -17,6 +17,7 @@ mod refit;
 pub use layout::WideLayout;
 pub use node::{EMPTY_SLOT, WideNode};
 pub use quantized::QuantizedNode;
+pub use refit::RefitPaths;
 
 use super::Bvh;
 use crate::Aabb;

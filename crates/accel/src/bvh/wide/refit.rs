@@ -1,7 +1,49 @@
-//! Refitting a wide tree in place after its primitives moved (skinned meshes, morphs).
+//! Refitting a wide tree in place after its primitives moved (skinned meshes, morphs, moving
+//! entities): the whole tree, or only the paths above the primitives that moved.
 
 use super::{WideBvh, WideLayout};
 use crate::Aabb;
+
+/// No parent (the root).
+const NO_PARENT: u32 = u32::MAX;
+
+/// Bits of a packed (node, slot) reference taken by the slot (up to 8 slots).
+const SLOT_BITS: u32 = 3;
+
+/// Recomputes the slot boxes of node `n` named in `mask` (bit `s`: slot `s`; layouts that
+/// cannot set slots alone get all of them): leaf slots from `bounds_at` (called with each
+/// primitive's position in the leaf order), inner slots from their child node's slots, which
+/// must be refitted already.
+#[inline]
+fn refit_node<const N: usize, L: WideLayout<N>>(
+    nodes: &mut [L],
+    n: usize,
+    mask: u32,
+    bounds_at: &mut impl FnMut(usize) -> Aabb,
+) {
+    let mask = if L::SETS_SLOTS_ALONE {
+        mask
+    } else {
+        (1 << N) - 1
+    };
+    let node = &nodes[n];
+    let mut boxes = [Aabb::EMPTY; N];
+    for (slot, b) in boxes.iter_mut().enumerate() {
+        if mask & (1 << slot) == 0 || !node.is_used(slot) {
+            continue;
+        }
+        *b = if node.is_leaf(slot) {
+            let first = node.child(slot) as usize;
+            (first..first + node.count(slot) as usize)
+                .fold(Aabb::EMPTY, |acc, k| acc.union(&bounds_at(k)))
+        } else {
+            // The child's stored slots: for a quantized layout, the rounded-out boxes its
+            // parent must enclose.
+            nodes[node.child(slot) as usize].bounds()
+        };
+    }
+    nodes[n].set_slot_boxes(mask, &boxes);
+}
 
 impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Recomputes every slot box from new primitive boxes, keeping the topology.
@@ -13,26 +55,171 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// update the primitive. The tree's quality is that of the pose it was built in; rebuild
     /// when motion is large.
     pub fn refit(&mut self, mut primitive_bounds: impl FnMut(u32) -> Aabb) {
+        let prims = &self.primitive_indices;
+        let mut bounds_at = |k: usize| primitive_bounds(prims[k]);
         for n in (0..self.nodes.len()).rev() {
-            let node = &self.nodes[n];
-            let mut boxes = [Aabb::EMPTY; N];
-            for (slot, b) in boxes.iter_mut().enumerate() {
-                if !node.is_used(slot) {
-                    continue;
-                }
-                *b = if node.is_leaf(slot) {
-                    let first = node.child(slot) as usize;
-                    self.primitive_indices[first..first + node.count(slot) as usize]
-                        .iter()
-                        .fold(Aabb::EMPTY, |acc, &p| acc.union(&primitive_bounds(p)))
-                } else {
-                    // The child's stored slots: for a quantized layout, the rounded-out boxes
-                    // its parent must enclose.
-                    self.nodes[node.child(slot) as usize].bounds()
-                };
-            }
-            self.nodes[n].set_child_boxes(&boxes);
+            refit_node(&mut self.nodes, n, (1 << N) - 1, &mut bounds_at);
         }
         self.bounds = self.nodes.first().map_or(Aabb::EMPTY, L::bounds);
+    }
+
+    /// Recomputes only the slots above the primitives at the `moved` positions of the leaf
+    /// order (see [`primitive_indices`](Self::primitive_indices)); `bounds_at` gives the box
+    /// of the primitive at a position. `paths` must come from [`RefitPaths::of`] on this tree.
+    ///
+    /// Why: when a few of many primitives move (a handful of moving entities in a large
+    /// world), a whole refit reads every primitive's box, most of them unchanged, at one
+    /// cache miss each. This recomputes the one slot on each level of a moved primitive's
+    /// path, shared slots once (children before parents), reading the child node just
+    /// written, not its seven siblings: on the picking bench, with 1,000 of 100,000 entities
+    /// moving, recomputing whole nodes on the paths took about 2 ms a frame.
+    ///
+    /// ```
+    /// use accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
+    /// use accel::bvh::wide::{Bvh8, RefitPaths};
+    /// use glam::Vec3A;
+    /// let mut boxes: Vec<Aabb> = (0..1000)
+    ///     .map(|i| Aabb::new(Vec3A::splat(i as f32), Vec3A::splat(i as f32 + 0.5)))
+    ///     .collect();
+    /// let mut wide = Bvh8::from_bvh(&Bvh::build(&boxes, &BuildConfig::default()));
+    /// let mut paths = RefitPaths::of(&wide);
+    /// boxes[7] = Aabb::new(Vec3A::splat(-10.0), Vec3A::splat(-9.0));
+    /// let position = wide.primitive_indices().iter().position(|&p| p == 7).unwrap();
+    /// let order = wide.primitive_indices().to_vec();
+    /// wide.refit_moved(&mut paths, [position as u32], |k| boxes[order[k] as usize]);
+    /// wide.validate(&boxes).unwrap();
+    /// ```
+    pub fn refit_moved(
+        &mut self,
+        paths: &mut RefitPaths,
+        moved: impl IntoIterator<Item = u32>,
+        mut bounds_at: impl FnMut(usize) -> Aabb,
+    ) {
+        for position in moved {
+            let mut at = paths.slot_of_position[position as usize];
+            while at != NO_PARENT && !paths.mark(at) {
+                at = paths.parent_slot[(at >> SLOT_BITS) as usize];
+            }
+        }
+        // Children come after their parents in the node array: highest marked node first.
+        for w in (0..paths.marked.len()).rev() {
+            let mut bits = core::mem::take(&mut paths.marked[w]);
+            while bits != 0 {
+                let b = 63 - bits.leading_zeros() as usize;
+                bits &= !(1u64 << b);
+                let n = w * 64 + b;
+                let mask = core::mem::take(&mut paths.dirty_slots[n]);
+                refit_node(&mut self.nodes, n, u32::from(mask), &mut bounds_at);
+            }
+        }
+        self.bounds = self.nodes.first().map_or(Aabb::EMPTY, L::bounds);
+    }
+}
+
+/// The links [`WideBvh::refit_moved`] climbs: the slot holding each primitive position and
+/// the parent slot of each node (packed as `node << 3 | slot`), with marks. Valid for the
+/// tree it was made from until that tree is rebuilt (refits keep it valid).
+#[derive(Clone, Debug, Default)]
+pub struct RefitPaths {
+    slot_of_position: Vec<u32>,
+    parent_slot: Vec<u32>,
+    /// Per node, the slots marked for recomputation (all clear between refits).
+    dirty_slots: Vec<u8>,
+    /// One bit per node: some of its slots are marked.
+    marked: Vec<u64>,
+}
+
+impl RefitPaths {
+    /// The links of `tree` (one pass over its nodes).
+    pub fn of<const N: usize, L: WideLayout<N>>(tree: &WideBvh<N, L>) -> Self {
+        const { assert!(N <= 1 << SLOT_BITS, "slots must fit in SLOT_BITS") };
+        let mut paths = Self {
+            slot_of_position: vec![NO_PARENT; tree.primitive_indices.len()],
+            parent_slot: vec![NO_PARENT; tree.nodes.len()],
+            dirty_slots: vec![0; tree.nodes.len()],
+            marked: vec![0; tree.nodes.len().div_ceil(64)],
+        };
+        for (n, node) in tree.nodes.iter().enumerate() {
+            for slot in (0..N).filter(|&s| node.is_used(s)) {
+                let at = (n as u32) << SLOT_BITS | slot as u32;
+                let child = node.child(slot) as usize;
+                if node.is_leaf(slot) {
+                    let end = child + node.count(slot) as usize;
+                    paths.slot_of_position[child..end].fill(at);
+                } else {
+                    paths.parent_slot[child] = at;
+                }
+            }
+        }
+        paths
+    }
+
+    /// Marks the packed slot `at`; returns whether it was marked already.
+    #[inline]
+    fn mark(&mut self, at: u32) -> bool {
+        let n = (at >> SLOT_BITS) as usize;
+        let bit = 1u8 << (at & ((1 << SLOT_BITS) - 1));
+        let was = self.dirty_slots[n] & bit != 0;
+        if self.dirty_slots[n] == 0 {
+            self.marked[n / 64] |= 1u64 << (n % 64);
+        }
+        self.dirty_slots[n] |= bit;
+        was
+    }
+
+    /// Memory held, in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        4 * (self.slot_of_position.len() + self.parent_slot.len())
+            + self.dirty_slots.len()
+            + 8 * self.marked.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::bvh::wide::{Bvh8, RefitPaths};
+    use crate::{Aabb, BuildConfig, Bvh};
+    use glam::Vec3A;
+
+    /// Refitting the paths above the moved primitives leaves the same node boxes, bit for
+    /// bit, as refitting everything; with few movers and with most of them, with leaves of
+    /// one primitive and of several; the paths stay usable for the next refit.
+    #[test]
+    fn path_refit_equals_whole_refit() {
+        let mut next = crate::test_floats(0x7e57_0f4e_5f17);
+        let mut random_box = |scale: f32| {
+            let c = Vec3A::new(next(), next(), next()) * 100.0;
+            Aabb::new(c, c + Vec3A::new(next(), next(), next()) * scale + 0.1)
+        };
+        for max_leaf_size in [1, 4] {
+            let mut boxes: Vec<Aabb> = (0..3_000).map(|_| random_box(2.0)).collect();
+            let config = BuildConfig {
+                max_leaf_size,
+                ..BuildConfig::default()
+            };
+            let mut by_paths = Bvh8::from_bvh(&Bvh::build(&boxes, &config));
+            let mut whole = by_paths.clone();
+            let mut paths = RefitPaths::of(&by_paths);
+            let order = by_paths.primitive_indices().to_vec();
+            for (round, movers) in [5usize, 1, 200, 2_900, 17].into_iter().enumerate() {
+                let moved: Vec<u32> = (0..movers)
+                    .map(|k| ((k * 7_919 + round * 31) % order.len()) as u32)
+                    .collect();
+                for &position in &moved {
+                    boxes[order[position as usize] as usize] = random_box(5.0);
+                }
+                by_paths.refit_moved(&mut paths, moved.iter().copied(), |k| {
+                    boxes[order[k] as usize]
+                });
+                whole.refit(|p| boxes[p as usize]);
+                by_paths.validate(&boxes).unwrap();
+                assert_eq!(by_paths.bounds(), whole.bounds(), "round {round}");
+                for (a, b) in by_paths.nodes().iter().zip(whole.nodes()) {
+                    for slot in 0..8 {
+                        assert_eq!(a.child_aabb(slot), b.child_aabb(slot), "round {round}");
+                    }
+                }
+            }
+        }
     }
 }
