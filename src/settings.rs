@@ -55,9 +55,9 @@ pub struct AccelSettings {
     /// frames); otherwise it is dropped at the first motion, and rebuilt once the world has
     /// held still for [`ray_snapshot_after_stable_frames`](Self::ray_snapshot_after_stable_frames).
     ///
-    /// Why: refitting it costs each moving entity its path in the snapshot (0.35-0.85 us per
-    /// mover at 100,000 entities on the bench machine), while a ray walking it instead of the
-    /// binary tree saves about 1.5-2.5 us at 100,000 entities and about 1.3 us at 10,000. A
+    /// Why: refitting it costs each moving entity its path in the snapshot (about 0.8 us per
+    /// mover on the picking bench, at 10,000 and at 100,000 entities), while a ray walking it
+    /// instead of the binary tree saves about 3.4 us at 100,000 entities and 1.1 us at 10,000. A
     /// game that casts one picking ray per frame over a moving crowd gains nothing from it;
     /// a ray-traced preview or many line-of-sight casts gain a lot.
     pub ray_snapshot_rays_per_mover: f32,
@@ -88,8 +88,8 @@ impl Default for AccelSettings {
             // Two seconds at 60 fps; at 100,000 entities a rebuild costs the frame about 1 ms
             // (collecting the boxes for the background thread).
             ray_snapshot_rebuild_after_moving_frames: Some(120),
-            // Break-even, from the costs above, is about 0.2-0.6 rays per mover: 1 leaves a
-            // margin for slower memory.
+            // Break-even, from the costs above, is about 0.25-0.75 rays per mover: 1 leaves a
+            // margin.
             ray_snapshot_rays_per_mover: 1.0,
             ray_snapshot_in_frame_max_entities: 5_000,
         }
