@@ -21,16 +21,27 @@ fn first_hit_down_z(app: &mut App, origin: Vec3) -> Option<Entity> {
         .unwrap()
 }
 
-/// The snapshot is refit when an entity moves: rays find it where it went, not where it was
-/// when the snapshot was made, through the snapshot. An entity entering drops it.
-#[test]
-fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
+/// Frames the world must stay free of spawns (and, without rays, of motion) before the
+/// plugin builds the snapshot.
+fn snapshot_wait() -> u32 {
+    AccelSettings::default()
+        .ray_snapshot_after_stable_frames
+        .expect("on by default")
+}
+
+/// Whether rays walk the dynamic tree's snapshot.
+fn has_snapshot(app: &App) -> bool {
+    app.world()
+        .resource::<AccelTrees>()
+        .query()
+        .has_dynamic_ray_snapshot()
+}
+
+/// A world of unit cubes: a mover at the origin and a row of 50 others far along +x, all
+/// dynamic, with `settings`. Returns the app, the mover and the cube mesh.
+fn world_with_mover(settings: AccelSettings) -> (App, Entity, Handle<Mesh>) {
     let mut app = app();
-    // Kept through motion whatever the ray count (the test casts one ray a frame at most).
-    app.insert_resource(AccelSettings {
-        ray_snapshot_rays_per_mover: 0.0,
-        ..default()
-    });
+    app.insert_resource(settings);
     let cube = app
         .world_mut()
         .resource_mut::<Assets<Mesh>>()
@@ -44,17 +55,22 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         app.world_mut()
             .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
     }
-    let wait = AccelSettings::default().ray_snapshot_after_stable_frames;
-    for _ in 0..wait.expect("on by default") + 2 {
+    (app, mover, cube)
+}
+
+/// The snapshot is refit when an entity moves: rays find it where it went, not where it was
+/// when the snapshot was made, through the snapshot. An entity entering drops it.
+#[test]
+fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
+    // Kept through motion whatever the ray count (the test casts one ray a frame at most).
+    let (mut app, mover, cube) = world_with_mover(AccelSettings {
+        ray_snapshot_rays_per_mover: 0.0,
+        ..default()
+    });
+    for _ in 0..snapshot_wait() + 2 {
         app.update();
     }
-    let copied = |app: &App| {
-        app.world()
-            .resource::<AccelTrees>()
-            .query()
-            .has_dynamic_ray_snapshot()
-    };
-    assert!(copied(&app));
+    assert!(has_snapshot(&app));
     assert_eq!(
         first_hit_down_z(&mut app, Vec3::new(0.0, 0.0, 5.0)),
         Some(mover)
@@ -64,7 +80,7 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         .entity_mut(mover)
         .insert(Transform::from_xyz(0.0, 10.0, 0.0));
     app.update();
-    assert!(copied(&app), "motion dropped the snapshot");
+    assert!(has_snapshot(&app), "motion dropped the snapshot");
     assert_eq!(first_hit_down_z(&mut app, Vec3::new(0.0, 0.0, 5.0)), None);
     assert_eq!(
         first_hit_down_z(&mut app, Vec3::new(0.0, 10.0, 5.0)),
@@ -83,7 +99,7 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         0,
         "the step left the fat box: this no longer tests the snapshot-only refit"
     );
-    assert!(copied(&app));
+    assert!(has_snapshot(&app));
     // The cube spans 9.6..10.6 in y now (9.55..10.55 before the second step).
     assert_eq!(first_hit_down_z(&mut app, Vec3::new(0.0, 9.57, 5.0)), None);
     assert_eq!(
@@ -96,7 +112,10 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
         .spawn((Transform::from_xyz(0.0, -10.0, 0.0), Mesh3d(cube)))
         .id();
     app.update();
-    assert!(!copied(&app), "an entity entered and the snapshot stayed");
+    assert!(
+        !has_snapshot(&app),
+        "an entity entered and the snapshot stayed"
+    );
     assert_eq!(
         first_hit_down_z(&mut app, Vec3::new(0.0, -10.0, 5.0)),
         Some(newcomer)
@@ -108,51 +127,30 @@ fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
 /// cost), and it comes back once the world has held still long enough.
 #[test]
 fn motion_without_rays_drops_the_snapshot_until_the_world_holds_still() {
-    let mut app = app();
-    let cube = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(Cuboid::new(1.0, 1.0, 1.0));
-    let mover = app
-        .world_mut()
-        .spawn((Transform::default(), Mesh3d(cube.clone())))
-        .id();
-    for i in 0..50 {
-        let x = 20.0 + 3.0 * i as f32;
-        app.world_mut()
-            .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
-    }
-    let wait = AccelSettings::default()
-        .ray_snapshot_after_stable_frames
-        .expect("on by default");
+    let (mut app, mover, _) = world_with_mover(AccelSettings::default());
+    let wait = snapshot_wait();
     for _ in 0..wait + 2 {
         app.update();
     }
-    let copied = |app: &App| {
-        app.world()
-            .resource::<AccelTrees>()
-            .query()
-            .has_dynamic_ray_snapshot()
-    };
-    assert!(copied(&app));
+    assert!(has_snapshot(&app));
     for frame in 0..5 {
         app.world_mut()
             .entity_mut(mover)
             .insert(Transform::from_xyz(0.0, frame as f32, 0.0));
         app.update();
-        assert!(!copied(&app), "frame {frame}: kept for no rays");
+        assert!(!has_snapshot(&app), "frame {frame}: kept for no rays");
     }
     for _ in 0..wait - 1 {
         app.update();
         assert!(
-            !copied(&app),
+            !has_snapshot(&app),
             "rebuilt before the world held still long enough"
         );
     }
     for _ in 0..2 {
         app.update();
     }
-    assert!(copied(&app));
+    assert!(has_snapshot(&app));
     assert_eq!(
         first_hit_down_z(&mut app, Vec3::new(0.0, 4.0, 5.0)),
         Some(mover)
@@ -163,46 +161,27 @@ fn motion_without_rays_drops_the_snapshot_until_the_world_holds_still() {
 /// the snapshot through motion, refit each frame, and rays find the mover where it went.
 #[test]
 fn many_rays_keep_the_snapshot_through_motion() {
-    let mut app = app();
-    let cube = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(Cuboid::new(1.0, 1.0, 1.0));
-    let mover = app
-        .world_mut()
-        .spawn((Transform::default(), Mesh3d(cube.clone())))
-        .id();
-    for i in 0..50 {
-        let x = 20.0 + 3.0 * i as f32;
-        app.world_mut()
-            .spawn((Transform::from_xyz(x, 0.0, 0.0), Mesh3d(cube.clone())));
-    }
-    let wait = AccelSettings::default()
-        .ray_snapshot_after_stable_frames
-        .expect("on by default");
+    let (mut app, mover, _) = world_with_mover(AccelSettings::default());
     let cast_ten = |app: &mut App, y: f32| {
         (0..10)
             .map(|_| first_hit_down_z(app, Vec3::new(0.0, y, 5.0)))
             .last()
             .flatten()
     };
-    for _ in 0..wait + 2 {
+    for _ in 0..snapshot_wait() + 2 {
         cast_ten(&mut app, 0.0);
         app.update();
     }
-    let copied = |app: &App| {
-        app.world()
-            .resource::<AccelTrees>()
-            .query()
-            .has_dynamic_ray_snapshot()
-    };
-    assert!(copied(&app));
+    assert!(has_snapshot(&app));
     for frame in 1..20 {
         app.world_mut()
             .entity_mut(mover)
             .insert(Transform::from_xyz(0.0, frame as f32, 0.0));
         app.update();
-        assert!(copied(&app), "frame {frame}: dropped despite the rays");
+        assert!(
+            has_snapshot(&app),
+            "frame {frame}: dropped despite the rays"
+        );
         assert_eq!(cast_ten(&mut app, frame as f32), Some(mover));
         assert_eq!(cast_ten(&mut app, frame as f32 - 1.0), None);
     }
