@@ -84,14 +84,9 @@ impl Held {
         // Past a quarter of the leaves, paths overlap so much that one sweep over every node
         // is cheaper than climbing them.
         if moved.len() > leaf_at.len() / 4 {
-            let all = 0..leaf_at.len() as u32;
-            wide.refit_moved(paths, all, bounds_at);
+            wide.refit_at(bounds_at);
         } else {
-            // In leaf order, the paths' nodes and the boxes are read front to back (nearby
-            // movers share cache lines, and the hardware prefetcher follows) instead of in
-            // the order the sync met the entities.
-            let mut positions: Vec<u32> = moved.iter().map(|&l| position_of[l as usize]).collect();
-            positions.sort_unstable();
+            let positions = moved.iter().map(|&leaf| position_of[leaf as usize]);
             wide.refit_moved(paths, positions, bounds_at);
         }
         self.moving_refits = self.moving_refits.saturating_add(1);

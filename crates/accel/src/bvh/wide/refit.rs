@@ -55,8 +55,14 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// update the primitive. The tree's quality is that of the pose it was built in; rebuild
     /// when motion is large.
     pub fn refit(&mut self, mut primitive_bounds: impl FnMut(u32) -> Aabb) {
-        let prims = &self.primitive_indices;
-        let mut bounds_at = |k: usize| primitive_bounds(prims[k]);
+        let prims = core::mem::take(&mut self.primitive_indices);
+        self.refit_at(|k| primitive_bounds(prims[k]));
+        self.primitive_indices = prims;
+    }
+
+    /// [`refit`](Self::refit) with the boxes given by position in the leaf order (see
+    /// [`primitive_indices`](Self::primitive_indices)) rather than by primitive id.
+    pub fn refit_at(&mut self, mut bounds_at: impl FnMut(usize) -> Aabb) {
         for n in (0..self.nodes.len()).rev() {
             refit_node(&mut self.nodes, n, (1 << N) - 1, &mut bounds_at);
         }
