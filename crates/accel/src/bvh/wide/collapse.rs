@@ -1,5 +1,6 @@
 //! From binary to wide: pull grandchildren up until each node has `N` children.
 
+use super::plan::plan_slots;
 use super::{WideBvh, WideLayout, WideNode};
 use crate::Aabb;
 use crate::bvh::validate::ValidationError;
@@ -7,12 +8,13 @@ use crate::bvh::{Bvh, BvhNode};
 use crate::prefetch::prefetch_node;
 use std::borrow::Cow;
 
-/// Collapses top-down. At each wide node the binary children are opened greedily, always the
-/// interior one with the largest surface area: that is the child a random ray is most likely
-/// to enter, so opening it saves the most expected traversal steps (the SAH-greedy collapse
-/// of Wald et al. 2008 and of Embree's BVH4/8 builders).
+/// Collapses along the least-cost plan of [`plan_slots`]: which binary nodes become wide
+/// nodes, chosen so that the wide nodes' total surface area (the nodes a random ray is
+/// expected to visit) is least. The greedy top-down collapse (open the interior child of
+/// largest area until the node is full: Wald et al. 2008, Embree's BVH4/8 builders) left the
+/// bottom level, which holds most nodes, half empty; see `plan.rs`.
 ///
-/// The top-down pass records only which binary node each slot takes (a few bytes a slot);
+/// The plan records only which binary node each slot takes (a few bytes a slot);
 /// the wide nodes are written once, by the bottom-up pass. Why: an earlier version built
 /// every node twice, as a float node and then in the layout, in arrays grown by doubling, and
 /// at a million entities perf put about a quarter of its 210 ms on page faults and copies of
@@ -70,66 +72,6 @@ pub(super) fn collapse<const N: usize, L: WideLayout<N>>(bvh: &Bvh) -> WideBvh<N
 
 /// How many wide nodes ahead the bottom-up pass of [`collapse`] asks for binary nodes.
 const PREFETCH_AHEAD: usize = 4;
-
-/// A slot of a wide node being planned: the binary node it takes, and (for an interior one)
-/// the wide node made from it.
-#[derive(Clone, Copy)]
-struct PlannedSlot {
-    binary: u32,
-    wide: u32,
-}
-
-/// The top-down pass of [`collapse`]: for each wide node (node 0 the root, children after
-/// their parent), its slots in order.
-fn plan_slots<const N: usize>(binary: &[BvhNode]) -> Vec<[Option<PlannedSlot>; N]> {
-    let area = |s: usize| binary[s].aabb().half_area();
-    // A wide node takes at least one binary interior node, so this bounds the count from
-    // above for trees whose nodes open fully, and is a fair first guess for the rest.
-    let mut plan: Vec<[Option<PlannedSlot>; N]> =
-        Vec::with_capacity(binary.len() / (2 * (N - 1)) + 1);
-    plan.push([None; N]);
-    // (wide node to fill, binary node whose children it takes)
-    let mut work = vec![(0usize, 0usize)];
-    while let Some((wide, root)) = work.pop() {
-        let mut slots = [0usize; N];
-        let mut len;
-        let root_node = &binary[root];
-        if root_node.is_leaf() {
-            // Only a one-leaf tree has a leaf root: it becomes a node with one leaf slot.
-            slots[0] = root;
-            len = 1;
-        } else {
-            slots[0] = root_node.first as usize;
-            slots[1] = root_node.first as usize + 1;
-            len = 2;
-            while len < N {
-                let Some(open) = (0..len)
-                    .filter(|&i| !binary[slots[i]].is_leaf())
-                    .max_by(|&a, &b| area(slots[a]).total_cmp(&area(slots[b])))
-                else {
-                    break;
-                };
-                let first = binary[slots[open]].first as usize;
-                slots[open] = first;
-                slots[len] = first + 1;
-                len += 1;
-            }
-        }
-        for (i, &s) in slots[..len].iter().enumerate() {
-            let mut planned = PlannedSlot {
-                binary: s as u32,
-                wide: 0,
-            };
-            if !binary[s].is_leaf() {
-                planned.wide = plan.len() as u32;
-                work.push((plan.len(), s));
-                plan.push([None; N]);
-            }
-            plan[wide][i] = Some(planned);
-        }
-    }
-    plan
-}
 
 /// A binary tree whose leaves hold at most `max` primitives: larger leaves (which only a
 /// depth limit makes) become balanced subtrees of leaves that share the big leaf's box, a

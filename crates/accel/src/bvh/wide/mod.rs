@@ -9,6 +9,7 @@
 mod collapse;
 mod layout;
 mod node;
+mod plan;
 mod quantized;
 mod query;
 mod ray;
