@@ -34,19 +34,30 @@ pub(super) fn plan_slots<const N: usize>(binary: &[BvhNode]) -> Vec<[Option<Plan
         )
     };
     let choices = least_cost_choices::<N>(binary);
+    let mut stack = Vec::new();
+    plan_from(binary, |root, covered| {
+        cover_children(binary, &choices, root, N, &mut stack, covered);
+    })
+}
+
+/// Lays out the wide nodes of a plan, given which binary nodes cover the children of each
+/// binary node made a wide node (`cover` appends them, at most `N`, left to right).
+fn plan_from<const N: usize>(
+    binary: &[BvhNode],
+    mut cover: impl FnMut(usize, &mut Vec<usize>),
+) -> Vec<[Option<PlannedSlot>; N]> {
     let mut plan: Vec<[Option<PlannedSlot>; N]> = Vec::with_capacity(binary.len() / N + 1);
     plan.push([None; N]);
     // (wide node to fill, binary node it is made from)
     let mut work = vec![(0usize, 0usize)];
     let mut covered = Vec::with_capacity(N);
-    let mut stack = Vec::new();
     while let Some((wide, root)) = work.pop() {
         covered.clear();
         if binary[root].is_leaf() {
             // Only a one-leaf tree has a leaf root: it becomes a node with one leaf slot.
             covered.push(root);
         } else {
-            cover_children(binary, &choices, root, N, &mut stack, &mut covered);
+            cover(root, &mut covered);
         }
         for (i, &s) in covered.iter().enumerate() {
             let mut planned = PlannedSlot {
@@ -231,7 +242,7 @@ fn cover_children(
 
 #[cfg(test)]
 mod tests {
-    use super::{PlannedSlot, plan_slots};
+    use super::{PlannedSlot, plan_from, plan_slots};
     use crate::bvh::wide::Bvh8;
     use crate::bvh::{BuildConfig, Bvh, BvhNode, SplitStrategy};
     use crate::{Aabb, SahCosts};
@@ -239,55 +250,22 @@ mod tests {
 
     /// The collapse this module replaced (open the interior slot of largest area until the
     /// node is full): a feasible plan, so the least-cost one must never cost more.
-    /// Only one slot-filling order is tried, from the root down, as before.
     fn plan_slots_greedy<const N: usize>(binary: &[BvhNode]) -> Vec<[Option<PlannedSlot>; N]> {
         let area = |s: usize| binary[s].aabb().half_area();
-        // A wide node takes at least one binary interior node, so this bounds the count from
-        // above for trees whose nodes open fully, and is a fair first guess for the rest.
-        let mut plan: Vec<[Option<PlannedSlot>; N]> =
-            Vec::with_capacity(binary.len() / (2 * (N - 1)) + 1);
-        plan.push([None; N]);
-        // (wide node to fill, binary node whose children it takes)
-        let mut work = vec![(0usize, 0usize)];
-        while let Some((wide, root)) = work.pop() {
-            let mut slots = [0usize; N];
-            let mut len;
-            let root_node = &binary[root];
-            if root_node.is_leaf() {
-                // Only a one-leaf tree has a leaf root: it becomes a node with one leaf slot.
-                slots[0] = root;
-                len = 1;
-            } else {
-                slots[0] = root_node.first as usize;
-                slots[1] = root_node.first as usize + 1;
-                len = 2;
-                while len < N {
-                    let Some(open) = (0..len)
-                        .filter(|&i| !binary[slots[i]].is_leaf())
-                        .max_by(|&a, &b| area(slots[a]).total_cmp(&area(slots[b])))
-                    else {
-                        break;
-                    };
-                    let first = binary[slots[open]].first as usize;
-                    slots[open] = first;
-                    slots[len] = first + 1;
-                    len += 1;
-                }
-            }
-            for (i, &s) in slots[..len].iter().enumerate() {
-                let mut planned = PlannedSlot {
-                    binary: s as u32,
-                    wide: 0,
+        plan_from(binary, |root, slots| {
+            slots.extend([binary[root].first as usize, binary[root].first as usize + 1]);
+            while slots.len() < N {
+                let Some(open) = (0..slots.len())
+                    .filter(|&i| !binary[slots[i]].is_leaf())
+                    .max_by(|&a, &b| area(slots[a]).total_cmp(&area(slots[b])))
+                else {
+                    break;
                 };
-                if !binary[s].is_leaf() {
-                    planned.wide = plan.len() as u32;
-                    work.push((plan.len(), s));
-                    plan.push([None; N]);
-                }
-                plan[wide][i] = Some(planned);
+                let first = binary[slots[open]].first as usize;
+                slots[open] = first;
+                slots.push(first + 1);
             }
-        }
-        plan
+        })
     }
 
     /// Total half area of the binary nodes a plan makes wide nodes (the root among them);
@@ -313,14 +291,17 @@ mod tests {
         cost
     }
 
+    /// Floats in `[0, 1)` from a linear congruential generator: fixed scenes for every run.
+    fn unit_floats(seed: u32) -> impl FnMut() -> f32 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        }
+    }
+
     fn scenes() -> Vec<(&'static str, Vec<Aabb>)> {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = unit_floats(0x2545_f491);
         let mut scenes = Vec::new();
         for n in [1usize, 2, 3, 9, 64, 100, 1000, 3000] {
             let uniform = (0..n)
@@ -399,11 +380,7 @@ mod tests {
             })
             .collect();
         // As on the picking bench: one entity per 64 cubic units.
-        let mut state = 7u32;
-        let mut next = move || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = unit_floats(7);
         let half = (20_000.0f32 * 64.0).cbrt() / 2.0;
         let entities: Vec<Aabb> = (0..20_000)
             .map(|_| {
