@@ -5,8 +5,8 @@
 //! leaves is about 17 levels deep at 10^5 primitives, 17 is not a multiple of 3, and the last
 //! wide level, which holds most of the nodes, gets two binary levels: four children in eight
 //! slots. On the picking bench's 10^5 entities the greedy plan made 33,715 nodes with 3.97
-//! children each, twice as many nodes as full ones need, so rays fetched twice as many from
-//! memory as they had to.
+//! children each, more than twice as many nodes as full ones need, so rays fetched about twice
+//! as many from memory as they had to.
 //!
 //! Here the plan is the one of least SAH cost instead (the dynamic programme of Ylitie et al.
 //! 2017, "Efficient incoherent ray traversal on GPUs through compressed wide BVHs", section
