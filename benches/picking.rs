@@ -15,6 +15,7 @@
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
 use bevy::prelude::*;
+use bevy_accel::picking::SlotMeshTableMode;
 use bevy_accel::prelude::*;
 mod picking_world;
 use criterion::measurement::WallTime;
@@ -80,23 +81,34 @@ fn picking(c: &mut Criterion) {
     for n in [10_000, 100_000] {
         let mut group = c.benchmark_group(format!("picking/{n}"));
         group.sample_size(10);
-        // (entities static, snapshot allowed, our row, Bevy's row on the same world)
-        for (is_static, snapshot, name, bevy_name) in [
+        // (entities static, snapshot allowed, slot mesh table, our row, Bevy's row on the
+        // same world)
+        for (is_static, snapshot, table, name, bevy_name) in [
             (
                 true,
                 true,
+                SlotMeshTableMode::Always,
                 "bevy_accel AccelRayCast, static entities",
                 Some("bevy MeshRayCast, static world"),
             ),
             (
+                true,
+                true,
+                SlotMeshTableMode::Never,
+                "bevy_accel AccelRayCast without the slot mesh table, static entities",
+                None,
+            ),
+            (
                 false,
                 false,
+                SlotMeshTableMode::Always,
                 "bevy_accel AccelRayCast, dynamic entities, binary tree",
                 None,
             ),
             (
                 false,
                 true,
+                SlotMeshTableMode::Always,
                 "bevy_accel AccelRayCast, dynamic entities at rest, snapshot",
                 Some("bevy MeshRayCast, dynamic world at rest"),
             ),
@@ -106,7 +118,7 @@ fn picking(c: &mut Criterion) {
             if !wanted(&ids) {
                 continue;
             }
-            let (mut app, rays) = world(n, is_static, snapshot);
+            let (mut app, rays) = world(n, is_static, snapshot, table);
             let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
             let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
             let world = app.world();

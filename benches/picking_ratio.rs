@@ -18,11 +18,13 @@
 //! still dynamic tree instead of the static tree. With `moving=P` the entities are dynamic and
 //! P per mille of them take a small step before every round (one `App::update`, which refits
 //! the snapshot); add `nosnapshot` to walk the binary dynamic tree instead, as rays did in
-//! every frame with motion before the snapshot was kept through it.
+//! every frame with motion before the snapshot was kept through it. Candidates find their
+//! meshes through the slot mesh table; `table=never` reads them from the ECS instead.
 
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
 use bevy::prelude::*;
+use bevy_accel::picking::SlotMeshTableMode;
 use bevy_accel::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
@@ -90,7 +92,12 @@ fn main() {
         // Dynamic entities at rest: rays walk the snapshot the plugin builds of the still
         // dynamic tree, a default scene's path (entities are dynamic unless marked static).
         let dynamic = at_rest || moving_per_mille.is_some();
-        let (mut app, rays) = world(n, !dynamic, snapshot);
+        let table = if std::env::args().any(|a| a == "table=never") {
+            SlotMeshTableMode::Never
+        } else {
+            SlotMeshTableMode::Always
+        };
+        let (mut app, rays) = world(n, !dynamic, snapshot, table);
         if moving_per_mille.is_some() {
             // The snapshot is kept through motion whatever the ray count: the bench measures
             // what a ray costs through it (by default it is kept only while rays outnumber the

@@ -22,6 +22,10 @@ pub struct AccelStats {
     pub sync_time: Duration,
     /// Time spent refitting, optimising and (maybe) rebuilding the dynamic tree.
     pub maintain_time: Duration,
+    /// Rays cast through the trees per frame (those counted by
+    /// [`AccelTrees::count_rays`], as `AccelRayCast` counts its own), averaged over about ten
+    /// frames: what the ray snapshot and picking's slot mesh table are kept for.
+    pub rays_per_frame: f32,
     /// Entities in the dynamic tree.
     pub dynamic_entities: usize,
     /// Entities in the static tree.

@@ -138,6 +138,7 @@ pub(crate) fn sync_trees(
     // skip work in still frames (the culling keeps a view's walk while neither its frustum
     // nor the trees change).
     let tree_state = trees.bypass_change_detection();
+    tree_state.clear_assigned_slots();
 
     for entity in pending.0.drain() {
         let desired =
@@ -291,6 +292,7 @@ pub(crate) fn maintain_trees(
         trees.dynamic_mut().set_config(config);
     }
     traffic.observe(&trees, &stats);
+    stats.rays_per_frame = traffic.rays;
     let start = Instant::now();
     // Checked through shared access first: a mutable access marks `AccelTrees` changed.
     let snapshot_moved = trees.query().dynamic_ray_snapshot_needs_refit();

@@ -190,6 +190,8 @@ pub struct AccelTrees {
     /// The entity of each slot, packed: see [`AccelTrees::slot_entities`].
     entities_by_slot: Vec<Option<Entity>>,
     free_slots: Vec<u32>,
+    /// Slots handed to an entity since the last sync began (see [`Self::assigned_slots`]).
+    assigned_slots: Vec<u32>,
     /// Static boxes by slot (empty for slots that are not static), the static tree's input.
     static_bounds: Vec<Aabb>,
     static_dirty: bool,
@@ -329,7 +331,7 @@ impl AccelTrees {
 
     fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
         let entry = SlotEntry::new(entity, bounds, frame);
-        if let Some(slot) = self.free_slots.pop() {
+        let slot = if let Some(slot) = self.free_slots.pop() {
             self.slots[slot as usize] = entry;
             self.entities_by_slot[slot as usize] = Some(entity);
             slot
@@ -338,7 +340,22 @@ impl AccelTrees {
             self.entities_by_slot.push(Some(entity));
             self.static_bounds.push(Aabb::EMPTY);
             (self.slots.len() - 1) as u32
-        }
+        };
+        self.assigned_slots.push(slot);
+        slot
+    }
+
+    /// The slots handed to an entity (a new one, or one that changed tree) in this frame's
+    /// sync, maybe more than once each: for per-slot data kept beside the trees, such as
+    /// picking's slot mesh table, which must learn a slot's new entity.
+    #[cfg_attr(not(feature = "picking"), allow(dead_code))]
+    pub(crate) fn assigned_slots(&self) -> &[u32] {
+        &self.assigned_slots
+    }
+
+    /// Starts a new frame's [`Self::assigned_slots`].
+    pub(crate) fn clear_assigned_slots(&mut self) {
+        self.assigned_slots.clear();
     }
 
     /// Puts an entity in the tree it belongs in, or moves it there, with a valid world box and
@@ -516,91 +533,5 @@ impl AccelTrees {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{AccelTrees, LocalFrame, Placed};
-    use accel::Aabb;
-    use bevy::math::Vec3;
-    use bevy::prelude::Entity;
-
-    /// Bevy hands a despawned entity's index to a new entity. When the newcomer is placed
-    /// before the dead entity's removal is processed, the dead one must leave the trees then,
-    /// and its late removal must not take the newcomer out.
-    #[test]
-    fn a_reused_index_evicts_the_dead_entity_and_keeps_the_new_one() {
-        for is_static in [false, true] {
-            let mut trees = AccelTrees::default();
-            let dead = Entity::from_raw_u32(5).unwrap();
-            let newcomer = Entity::from_index_and_generation(
-                dead.index(),
-                dead.generation().after_versions(1),
-            );
-            let other = Entity::from_raw_u32(9).unwrap();
-            let bounds = Aabb::new(Vec3::ZERO, Vec3::ONE);
-            let frame = LocalFrame::NONE;
-            assert_eq!(
-                trees.place(other, bounds, frame, is_static),
-                Placed::Inserted
-            );
-            assert_eq!(
-                trees.place(dead, bounds, frame, is_static),
-                Placed::Inserted
-            );
-            assert_eq!(
-                trees.place(newcomer, bounds, frame, is_static),
-                Placed::Inserted
-            );
-            assert!(!trees.contains(dead) && trees.contains(newcomer));
-            assert!(!trees.remove(dead), "the dead entity was already evicted");
-            assert!(trees.contains(newcomer) && trees.contains(other));
-            assert_eq!(trees.len(), 2);
-            trees.rebuild_static_if_dirty();
-            let held = trees.dynamic().len() + trees.static_len();
-            assert_eq!(held, 2, "each entity in exactly one tree, once");
-            let mut listed: Vec<Entity> = trees.iter().map(|(e, _)| e).collect();
-            listed.sort();
-            let mut expected = vec![newcomer, other];
-            expected.sort();
-            assert_eq!(listed, expected);
-            assert!(trees.remove(newcomer) && trees.remove(other));
-            assert!(trees.is_empty() && trees.iter().next().is_none());
-        }
-    }
-
-    /// The entity a ray reads from a slot's record is the one the packed array (culling's)
-    /// names, through placements in both trees, moves, moves between the trees, removals and
-    /// slots handed to new entities.
-    #[test]
-    fn slot_records_and_the_packed_array_name_the_same_entity() {
-        let mut trees = AccelTrees::default();
-        let entity = |i: u32| Entity::from_raw_u32(i).unwrap();
-        let frame = LocalFrame::NONE;
-        let at = |x: f32| Aabb::new(Vec3::splat(x), Vec3::splat(x + 1.0));
-        let agree = |trees: &AccelTrees, step: &str| {
-            for (slot, packed) in trees.slot_entities().iter().enumerate() {
-                assert_eq!(trees.entity(slot as u32), *packed, "{step}, slot {slot}");
-            }
-        };
-        for i in 0..40 {
-            trees.place(entity(i), at(i as f32), frame, i % 3 == 0);
-        }
-        agree(&trees, "placed");
-        for i in 0..40 {
-            trees.place(entity(i), at(i as f32 + 0.5), frame, i % 3 == 0);
-        }
-        agree(&trees, "moved");
-        for i in (0..40).step_by(4) {
-            trees.place(entity(i), at(i as f32), frame, i % 3 != 0);
-        }
-        agree(&trees, "moved between trees");
-        for i in (0..40).step_by(5) {
-            assert!(trees.remove(entity(i)));
-        }
-        agree(&trees, "removed");
-        for i in 100..110 {
-            trees.place(entity(i), at(i as f32), frame, i % 2 == 0);
-        }
-        agree(&trees, "slots reused");
-        trees.rebuild_static_if_dirty();
-        agree(&trees, "static tree rebuilt");
-    }
-}
+#[path = "trees_tests.rs"]
+mod tests;

@@ -3,6 +3,7 @@
 //! (`AccelRayCast` and `MeshRayCast` interleaved).
 
 use bevy::prelude::*;
+use bevy_accel::picking::{AccelPickingSettings, SlotMeshTable, SlotMeshTableMode};
 use bevy_accel::prelude::*;
 
 #[path = "../../tests/common/mod.rs"]
@@ -30,8 +31,14 @@ impl Rng {
 /// of the dynamic tree once the world has stood still
 /// ([`AccelSettings::ray_snapshot_after_stable_frames`]); without it rays walk the binary
 /// dynamic tree, as they do in a moving world that casts fewer rays than it moves entities
-/// ([`AccelSettings::ray_snapshot_rays_per_mover`]).
-pub fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
+/// ([`AccelSettings::ray_snapshot_rays_per_mover`]). `table` says whether ray casts find
+/// candidates' meshes through the [`SlotMeshTable`] or the ECS.
+pub fn world(
+    n: usize,
+    is_static: bool,
+    snapshot: bool,
+    table: SlotMeshTableMode,
+) -> (App, Vec<Ray3d>) {
     let mut app = headless_app();
     app.add_plugins(AccelPickingPlugin);
     // The copy is made in the frame at every size the bench runs, so that the bench can print
@@ -39,6 +46,12 @@ pub fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
     app.insert_resource(AccelSettings {
         ray_snapshot_after_stable_frames: snapshot.then_some(30),
         ray_snapshot_in_frame_max_entities: usize::MAX,
+        ..default()
+    });
+    // The bench casts its rays outside frames, where the table's default policy, which
+    // watches rays per frame, would never switch it on: the mode is set outright.
+    app.insert_resource(AccelPickingSettings {
+        slot_mesh_table: table,
         ..default()
     });
     app.finish();
@@ -97,6 +110,10 @@ pub fn world(n: usize, is_static: bool, snapshot: bool) -> (App, Vec<Ray3d>) {
             Ray3d::new(origin, Dir3::new(target - origin).unwrap_or(Dir3::X))
         })
         .collect();
+    assert_eq!(
+        app.world().resource::<SlotMeshTable>().is_active(),
+        table == SlotMeshTableMode::Always
+    );
     (app, rays)
 }
 

@@ -131,6 +131,9 @@ pub enum MeshShape {
 #[derive(Resource, Default)]
 pub struct AccelMeshCache {
     entries: RwLock<HashMap<AssetId<Mesh>, MeshShape>>,
+    /// Counts [`Self::invalidate`] and [`Self::clear`] calls, so that copies of shapes held
+    /// elsewhere (the [`SlotMeshTable`](super::SlotMeshTable)'s) know to drop theirs.
+    generation: u64,
 }
 
 impl AccelMeshCache {
@@ -161,6 +164,7 @@ impl AccelMeshCache {
 
     /// Drops the cached shape of a mesh asset (it is rebuilt at the next ray that reaches it).
     pub fn invalidate(&mut self, id: AssetId<Mesh>) {
+        self.generation += 1;
         self.entries
             .get_mut()
             .unwrap_or_else(PoisonError::into_inner)
@@ -169,10 +173,16 @@ impl AccelMeshCache {
 
     /// Drops every cached shape.
     pub fn clear(&mut self) {
+        self.generation += 1;
         self.entries
             .get_mut()
             .unwrap_or_else(PoisonError::into_inner)
             .clear();
+    }
+
+    /// How many times entries were dropped ([`Self::invalidate`], [`Self::clear`]).
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Number of mesh assets with a cached shape.
@@ -201,6 +211,7 @@ impl AccelMeshCache {
 pub(crate) fn invalidate_changed_meshes(
     mut events: MessageReader<AssetEvent<Mesh>>,
     mut cache: ResMut<AccelMeshCache>,
+    mut table: ResMut<super::SlotMeshTable>,
 ) {
     // Collect first: taking `cache` mutably only when something changed keeps its change tick
     // quiet in the common frame where no mesh was edited.
@@ -212,6 +223,8 @@ pub(crate) fn invalidate_changed_meshes(
         })
         .collect();
     for id in stale {
+        // The table's cell first: it may hold the shape even where the cache was cleared.
+        table.invalidate(id);
         if cache.contains(id) {
             cache.invalidate(id);
         }

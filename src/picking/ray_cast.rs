@@ -1,6 +1,7 @@
 //! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
 
 use super::mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
+use super::slot_meshes::{SlotMeshLookup, SlotMeshTable};
 use crate::{AccelTrees, LocalFrame};
 use accel::query::ray_walk::closest_hit_announcing;
 use accel::{
@@ -40,6 +41,10 @@ type MeshTargetData = (
     Option<Read<SimplifiedMesh>>,
     Has<RayCastBackfaces>,
 );
+
+/// What a mesh ray cast reads of a candidate whose mesh the [`SlotMeshTable`] gave, once
+/// the ray has hit that mesh: whether it counts.
+type MeshHitData = (Read<InheritedVisibility>, Read<ViewVisibility>);
 
 /// What a bounds-only ray cast reads: any tracked entity, visible unless its visibility
 /// components say otherwise (its box and transform are in its slot's frame).
@@ -99,6 +104,9 @@ enum Target {
 ///   [`AccelSettings::watch_static_motion`](crate::AccelSettings) is off, or any motion while
 ///   [`AccelSettings::enabled`](crate::AccelSettings) is off, is seen only once synced;
 /// - a mesh asset edited or removed this frame is seen from the next (see [`AccelMeshCache`]);
+/// - while the [`SlotMeshTable`] is on (many rays per frame), an entity's mesh handle,
+///   `SimplifiedMesh` or `RayCastBackfaces` changed after `AccelSystems::Sync` is seen from
+///   the next frame, as its transform is;
 /// - the watertight triangle test has no epsilon: triangles too small or thin for Bevy's
 ///   Möller-Trumbore test (determinant below `f32::EPSILON`) are hit, and rays through a
 ///   shared edge never fall between its triangles; where two triangles tie, the one reported
@@ -116,7 +124,9 @@ pub struct AccelRayCast<'w, 's> {
     locations: &'w Entities,
     meshes: Res<'w, Assets<Mesh>>,
     cache: Res<'w, AccelMeshCache>,
+    slot_meshes: Res<'w, SlotMeshTable>,
     mesh_targets: Query<'w, 's, MeshTargetData, MeshFilter>,
+    mesh_hits: Query<'w, 's, MeshHitData, MeshFilter>,
     bounds_targets: Query<'w, 's, BoundsTargetData>,
     hits: Local<'s, Vec<PendingHit>>,
     output: Local<'s, Vec<(Entity, RayMeshHit)>>,
@@ -275,7 +285,9 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             locations,
             meshes,
             cache,
+            slot_meshes,
             mesh_targets,
+            mesh_hits,
             bounds_targets,
             hits,
             ..
@@ -298,37 +310,49 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             let (entity, hit) = match target {
                 Target::Meshes => {
                     let entity = trees.entity(slot)?;
-                    // The entity's location record, asked for now and read by the lookup
-                    // below: its miss then overlaps the oriented-box test, instead of
-                    // following it (perf put a sixth of the candidate's time on that record).
-                    core::hint::black_box(locations.get(entity).ok().flatten());
+                    // With the table on, the ECS is read only for the meshes a ray hits.
+                    let known = slot_meshes.lookup(slot, entity);
+                    match known {
+                        Some(SlotMeshLookup::NoMesh) => return None,
+                        // The entity's location record, asked for now and read by the lookup
+                        // below: its miss then overlaps the oriented-box test, instead of
+                        // following it (perf put a sixth of the candidate's time on it).
+                        None => {
+                            core::hint::black_box(locations.get(entity).ok().flatten());
+                        }
+                        Some(SlotMeshLookup::Mesh { .. }) => {}
+                    }
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
                     // any component read: a third of the candidates stop here.
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
                     local.intersect_aabb(&frame.local_bounds)?;
-                    let (inherited, view, mesh2d, mesh3d, simplified, both) =
-                        mesh_targets.get(entity).ok()?;
-                    if !visible(settings.visibility, Some(inherited), Some(view))
-                        || !(settings.filter)(entity)
-                    {
-                        return None;
-                    }
-                    let handle = simplified
-                        .map(|m| &m.0)
-                        .or(mesh3d.map(|m| &m.0))
-                        .or(mesh2d.map(|m| &m.0))?;
-                    // Bevy never culls the back faces of 2d meshes.
-                    let backfaces = if both || mesh2d.is_some() {
-                        Backfaces::Include
-                    } else {
-                        Backfaces::Cull
-                    };
-                    let hit = match cache.get_or_build(handle.id(), meshes)? {
-                        MeshShape::Triangles(mesh) => {
-                            triangle_hit(&mesh, frame, r, &local, backfaces)?
+                    let hit = if let Some(SlotMeshLookup::Mesh { cell, two_sided }) = known {
+                        let shape = cell.shape(cache, meshes)?;
+                        let hit = shape_hit(shape, frame, r, &local, two_sided)?;
+                        let (inherited, view) = mesh_hits.get(entity).ok()?;
+                        if !visible(settings.visibility, Some(inherited), Some(view))
+                            || !(settings.filter)(entity)
+                        {
+                            return None;
                         }
-                        MeshShape::Bounds => box_hit(frame, r, &local)?,
+                        hit
+                    } else {
+                        let (inherited, view, mesh2d, mesh3d, simplified, both) =
+                            mesh_targets.get(entity).ok()?;
+                        if !visible(settings.visibility, Some(inherited), Some(view))
+                            || !(settings.filter)(entity)
+                        {
+                            return None;
+                        }
+                        let handle = simplified
+                            .map(|m| &m.0)
+                            .or(mesh3d.map(|m| &m.0))
+                            .or(mesh2d.map(|m| &m.0))?;
+                        // Bevy never culls the back faces of 2d meshes.
+                        let two_sided = both || mesh2d.is_some();
+                        let shape = cache.get_or_build(handle.id(), meshes)?;
+                        shape_hit(&shape, frame, r, &local, two_sided)?
                     };
                     (entity, hit)
                 }
@@ -370,6 +394,28 @@ fn visible(
         RayCastVisibility::Any => true,
         RayCastVisibility::Visible => inherited.is_none_or(|v| v.get()),
         RayCastVisibility::VisibleInView => view.is_none_or(|v| v.get()),
+    }
+}
+
+/// The hit on a mesh's shape (its triangles, or its box where the mesh cannot be read);
+/// `two_sided` counts back faces.
+fn shape_hit(
+    shape: &MeshShape,
+    frame: &LocalFrame,
+    world: &Ray,
+    local: &Ray,
+    two_sided: bool,
+) -> Option<RayMeshHit> {
+    match shape {
+        MeshShape::Triangles(mesh) => {
+            let backfaces = if two_sided {
+                Backfaces::Include
+            } else {
+                Backfaces::Cull
+            };
+            triangle_hit(mesh, frame, world, local, backfaces)
+        }
+        MeshShape::Bounds => box_hit(frame, world, local),
     }
 }
 
