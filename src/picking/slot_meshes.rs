@@ -5,8 +5,9 @@
 //! location record, its `Mesh3d` row and its visibility rows before its mesh BVH could be
 //! walked, and half of those walks miss. Perf on the picking bench put those reads at
 //! two-thirds of a candidate's time (slot record 24%, entity record 23%, `Mesh3d` row 21%);
-//! with the mesh found by slot, the walks that miss cost no ECS read at all, and rays at
-//! 100k entities ran 15-18% faster (BENCHMARKS.md).
+//! with the mesh found by slot, the walks that miss cost no ECS read at all, and at 100k
+//! entities rays through the ECS took 1.15-1.23x the time of rays through the table, paired
+//! (BENCHMARKS.md).
 //!
 //! The price is upkeep: Bevy has no hook on a mutated `Mesh3d`, so the table is kept current
 //! by a `Changed` scan over every mesh entity each frame (about 85 us at 100k entities here).
