@@ -34,7 +34,9 @@ pub enum SlotMeshTableMode {
     /// [`AccelStats::rays_per_frame`](crate::AccelStats)) reach
     /// [`AccelPickingSettings::slot_mesh_table_rays_per_entity`](super::AccelPickingSettings)
     /// times the tracked entities, and dropped below half that. A pointer or two per frame
-    /// never pays for the table's upkeep; hundreds of rays per frame do.
+    /// never pays for the table's upkeep; hundreds of rays per frame do. Switching it on
+    /// costs one pass over the tracked entities, in that frame (3.9 ms at 100k on the
+    /// benchmark machine).
     #[default]
     Auto,
     /// Always kept: for scenes that cast many rays from the first frame.
