@@ -223,10 +223,11 @@ pub(crate) fn invalidate_changed_meshes(
         })
         .collect();
     for id in stale {
-        // The table's cell first: it may hold the shape even where the cache was cleared.
-        table.invalidate(id);
         if cache.contains(id) {
             cache.invalidate(id);
         }
     }
+    // Also after `AccelMeshCache::invalidate` or `clear` called by hand. No reader watches the
+    // table's change tick, so it is not marked.
+    table.bypass_change_detection().follow_cache(&cache);
 }

@@ -303,6 +303,10 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         // for together: each candidate's test starts with a miss on its record, and those
         // misses then overlap instead of following one another.
         let announce = |slot| trees.prefetch_candidate(slot);
+        // Whether a candidate passes the visibility setting and the filter.
+        let counts = |entity, inherited, view| {
+            visible(settings.visibility, inherited, view) && (settings.filter)(entity)
+        };
         let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
             // The exact box first: most candidates of a leaf fail it, and they then cost no
             // entity lookup.
@@ -331,26 +335,14 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                         let shape = cell.shape(cache, meshes)?;
                         let hit = shape_hit(shape, frame, r, &local, two_sided)?;
                         let (inherited, view) = mesh_hits.get(entity).ok()?;
-                        if !visible(settings.visibility, Some(inherited), Some(view))
-                            || !(settings.filter)(entity)
-                        {
-                            return None;
-                        }
-                        hit
+                        counts(entity, Some(inherited), Some(view)).then_some(hit)?
                     } else {
                         let (inherited, view, mesh2d, mesh3d, simplified, both) =
                             mesh_targets.get(entity).ok()?;
-                        if !visible(settings.visibility, Some(inherited), Some(view))
-                            || !(settings.filter)(entity)
-                        {
+                        if !counts(entity, Some(inherited), Some(view)) {
                             return None;
                         }
-                        let handle = simplified
-                            .map(|m| &m.0)
-                            .or(mesh3d.map(|m| &m.0))
-                            .or(mesh2d.map(|m| &m.0))?;
-                        // Bevy never culls the back faces of 2d meshes.
-                        let two_sided = both || mesh2d.is_some();
+                        let (handle, two_sided) = ray_cast_mesh(mesh3d, mesh2d, simplified, both)?;
                         let shape = cache.get_or_build(handle.id(), meshes)?;
                         shape_hit(&shape, frame, r, &local, two_sided)?
                     };
@@ -359,8 +351,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                 Target::Bounds => {
                     let entity = trees.entity(slot)?;
                     let (inherited, view) = bounds_targets.get(entity).ok()?;
-                    if !visible(settings.visibility, inherited, view) || !(settings.filter)(entity)
-                    {
+                    if !counts(entity, inherited, view) {
                         return None;
                     }
                     let frame = trees.local_frame(slot)?;
@@ -395,6 +386,22 @@ fn visible(
         RayCastVisibility::Visible => inherited.is_none_or(|v| v.get()),
         RayCastVisibility::VisibleInView => view.is_none_or(|v| v.get()),
     }
+}
+
+/// The mesh Bevy's ray cast tests for an entity (its `SimplifiedMesh`, else its `Mesh3d`, else
+/// its `Mesh2d`), and whether back faces count (`RayCastBackfaces`, or a 2d mesh: Bevy never
+/// culls those). `None` for an entity with none of the three.
+pub(crate) fn ray_cast_mesh<'a>(
+    mesh3d: Option<&'a Mesh3d>,
+    mesh2d: Option<&'a Mesh2d>,
+    simplified: Option<&'a SimplifiedMesh>,
+    backfaces: bool,
+) -> Option<(&'a Handle<Mesh>, bool)> {
+    let handle = simplified
+        .map(|m| &m.0)
+        .or(mesh3d.map(|m| &m.0))
+        .or(mesh2d.map(|m| &m.0))?;
+    Some((handle, backfaces || mesh2d.is_some()))
 }
 
 /// The hit on a mesh's shape (its triangles, or its box where the mesh cannot be read);

@@ -15,6 +15,7 @@
 //! frame outnumber the entities by a set ratio ([`SlotMeshTableMode::Auto`]).
 
 use super::mesh_cache::{AccelMeshCache, MeshShape};
+use super::ray_cast::ray_cast_mesh;
 use crate::AccelTrees;
 use crate::stats::AccelStats;
 use bevy::asset::AssetId;
@@ -163,17 +164,15 @@ impl SlotMeshTable {
         })
     }
 
-    /// Forgets every cell's shape (they are taken from the cache again as rays need them).
-    fn forget_shapes(&mut self) {
-        for cell in &mut self.meshes {
-            cell.shape = OnceLock::new();
-        }
-    }
-
-    /// Forgets the built shape of a mesh asset that changed or went away.
-    pub(crate) fn invalidate(&mut self, id: AssetId<Mesh>) {
-        if let Some(&index) = self.ids.get(&id) {
-            self.meshes[index as usize].shape = OnceLock::new();
+    /// Forgets every cell's shape when entries were dropped from the cache since the cells
+    /// took theirs ([`AccelMeshCache::generation`]): they are taken again as rays need them.
+    /// Called every frame, whether the plugin is on or off, since asset edits go on either way.
+    pub(crate) fn follow_cache(&mut self, cache: &AccelMeshCache) {
+        if self.cache_generation != cache.generation() {
+            self.cache_generation = cache.generation();
+            for cell in &mut self.meshes {
+                cell.shape = OnceLock::new();
+            }
         }
     }
 
@@ -185,18 +184,12 @@ impl SlotMeshTable {
         self.meshes.clear();
     }
 
-    /// Writes the entry of `slot`, now held by `entity` with these mesh components.
-    fn write(&mut self, slot: u32, entity: Entity, mesh: MeshComponents) {
-        let (mesh3d, mesh2d, simplified, backfaces) = mesh;
-        // The handle Bevy's ray cast tests: the simplified mesh first.
-        let handle = simplified
-            .map(|m| &m.0)
-            .or(mesh3d.map(|m| &m.0))
-            .or(mesh2d.map(|m| &m.0));
-        let mesh = match handle {
-            None => NO_MESH,
-            Some(handle) => {
-                let id = handle.id();
+    /// Writes the entry of `slot`, now held by `entity`, whose ray-cast mesh and back-face
+    /// rule are `mesh` (see [`ray_cast_mesh`]; `None`: no mesh).
+    fn write(&mut self, slot: u32, entity: Entity, mesh: Option<(AssetId<Mesh>, bool)>) {
+        let (mesh, two_sided) = match mesh {
+            None => (NO_MESH, false),
+            Some((id, two_sided)) => {
                 let next = self.meshes.len() as u32;
                 let index = *self.ids.entry(id).or_insert(next);
                 if index == next {
@@ -205,7 +198,7 @@ impl SlotMeshTable {
                         shape: OnceLock::new(),
                     });
                 }
-                index
+                (index, two_sided)
             }
         };
         let slot = slot as usize;
@@ -215,20 +208,12 @@ impl SlotMeshTable {
         self.by_slot[slot] = SlotMesh {
             entity: Some(entity),
             mesh,
-            two_sided: backfaces || mesh2d.is_some(),
+            two_sided,
         };
     }
 }
 
-/// What decides a slot's entry.
-type MeshComponents<'a> = (
-    Option<&'a Mesh3d>,
-    Option<&'a Mesh2d>,
-    Option<&'a SimplifiedMesh>,
-    bool,
-);
-
-/// The query that reads [`MeshComponents`].
+/// What decides a slot's entry (see [`ray_cast_mesh`]).
 type MeshComponentsQuery = (
     Option<&'static Mesh3d>,
     Option<&'static Mesh2d>,
@@ -289,13 +274,10 @@ type ChangedMeshFilter = Or<(
 /// Keeps the [`SlotMeshTable`] current: fills it when it is switched on, then rewrites the
 /// entries of slots handed to new entities, of entities whose mesh components changed, and
 /// of those that lost one. Runs after the sync, so slots are this frame's.
-// A system's parameters are its dependencies; bundling them would only hide them.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn keep_slot_mesh_table(
     settings: Res<super::AccelPickingSettings>,
     stats: Res<AccelStats>,
     trees: Res<AccelTrees>,
-    cache: Res<AccelMeshCache>,
     mut table: ResMut<SlotMeshTable>,
     mut pending: ResMut<PendingSlotMeshes>,
     components: Query<MeshComponentsQuery>,
@@ -315,12 +297,10 @@ pub(crate) fn keep_slot_mesh_table(
         }
         return;
     }
-    if table.cache_generation != cache.generation() {
-        // Someone dropped cache entries by hand: the cells may hold what they dropped.
-        table.cache_generation = cache.generation();
-        table.forget_shapes();
-    }
-    let entry_of = |entity: Entity| components.get(entity).unwrap_or((None, None, None, false));
+    let entry_of = |entity: Entity| {
+        let (mesh3d, mesh2d, simplified, backfaces) = components.get(entity).ok()?;
+        ray_cast_mesh(mesh3d, mesh2d, simplified, backfaces).map(|(h, two)| (h.id(), two))
+    };
     if !table.active {
         // Anything may have changed since the table was last kept: fill it from scratch.
         table.active = true;
