@@ -1,7 +1,8 @@
 //! The slot mesh table against Bevy's `MeshRayCast` while meshes change under it: handles
 //! mutated in place and replaced, simplified meshes and `RayCastBackfaces` added and removed,
-//! meshes removed, entities despawned and spawned into reused slots, entities moved between
-//! the trees, assets edited, and the table switched off and on.
+//! meshes removed, visibility components removed and added back, entities despawned and
+//! spawned into reused slots, entities moved between the trees, assets edited, and the table
+//! switched off and on.
 
 use bevy::ecs::system::RunSystemOnce;
 use bevy::picking::mesh_picking::ray_cast::{
@@ -29,7 +30,7 @@ fn table_active(app: &App) -> bool {
 /// Checks 2,000 random rays against `MeshRayCast`; `step` names the check in failures.
 fn assert_equivalent(app: &mut App, seed: u64, step: &str) {
     let tally = equivalence(app, 2_000, seed);
-    assert!(tally.hits > 200, "{step}: too few hits ({})", tally.hits);
+    assert!(tally.hits > 150, "{step}: too few hits ({})", tally.hits);
     assert_eq!(
         tally.different, 0,
         "{step}: {} of {} rays differ (first: {:?})",
@@ -44,7 +45,7 @@ fn edit(app: &mut App, entity: Entity, handles: &[Handle<Mesh>], rng: &mut Rng) 
     let Ok(mut e) = world.get_entity_mut(entity) else {
         return;
     };
-    match rng.next() % 8 {
+    match rng.next() % 10 {
         // In place: no hook fires, only the change tick moves.
         0 => {
             if let Some(mut mesh) = e.get_mut::<Mesh3d>() {
@@ -69,6 +70,21 @@ fn edit(app: &mut App, entity: Entity, handles: &[Handle<Mesh>], rng: &mut Rng) 
         // The entity keeps its `Aabb`, so it stays in the trees with no mesh.
         6 => {
             e.remove::<Mesh3d>();
+        }
+        // Bevy's ray cast hits only entities with both visibility components, whatever
+        // the visibility setting. (Half as often as they come back, so that enough entities
+        // keep them for the rays to hit.)
+        7 => match rng.next() % 4 {
+            0 => {
+                e.remove::<InheritedVisibility>();
+            }
+            1 => {
+                e.remove::<ViewVisibility>();
+            }
+            _ => {}
+        },
+        8 => {
+            e.insert((InheritedVisibility::VISIBLE, ViewVisibility::default()));
         }
         _ => {
             if e.contains::<AccelStatic>() {

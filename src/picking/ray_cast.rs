@@ -331,11 +331,21 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
                     local.intersect_aabb(&frame.local_bounds)?;
-                    let hit = if let Some(SlotMeshLookup::Mesh { cell, two_sided }) = known {
+                    let hit = if let Some(SlotMeshLookup::Mesh {
+                        cell,
+                        two_sided,
+                        visibility_rows,
+                    }) = known
+                    {
                         let shape = cell.shape(cache, meshes)?;
                         let hit = shape_hit(shape, frame, r, &local, two_sided)?;
-                        let (inherited, view) = mesh_hits.get(entity).ok()?;
-                        counts(entity, Some(inherited), Some(view)).then_some(hit)?
+                        if visibility_rows && matches!(settings.visibility, RayCastVisibility::Any)
+                        {
+                            counts(entity, None, None).then_some(hit)?
+                        } else {
+                            let (inherited, view) = mesh_hits.get(entity).ok()?;
+                            counts(entity, Some(inherited), Some(view)).then_some(hit)?
+                        }
                     } else {
                         let (inherited, view, mesh2d, mesh3d, simplified, both) =
                             mesh_targets.get(entity).ok()?;

@@ -59,6 +59,9 @@ struct SlotMesh {
     mesh: u32,
     /// Back faces count (`RayCastBackfaces`, or a 2d mesh, whose back faces Bevy never culls).
     two_sided: bool,
+    /// The entity has both `InheritedVisibility` and `ViewVisibility` (see
+    /// [`SlotMeshLookup::Mesh::visibility_rows`]). Cleared at once when it loses either.
+    visibility_rows: bool,
 }
 
 impl SlotMesh {
@@ -66,7 +69,16 @@ impl SlotMesh {
         entity: None,
         mesh: NO_MESH,
         two_sided: false,
+        visibility_rows: false,
     };
+}
+
+/// What decides a slot's entry: the entity's ray-cast mesh and back-face rule (see
+/// [`ray_cast_mesh`]; `None`: no mesh), and whether it has both visibility components.
+#[derive(Clone, Copy, Debug)]
+struct SlotMeshSource {
+    mesh: Option<(AssetId<Mesh>, bool)>,
+    visibility_rows: bool,
 }
 
 /// One mesh asset named by some slot, with its shape once a ray has needed it.
@@ -105,6 +117,13 @@ pub(crate) enum SlotMeshLookup<'a> {
         cell: &'a MeshCell,
         /// Back faces count.
         two_sided: bool,
+        /// The entity has both visibility components, as Bevy's ray cast requires of what it
+        /// hits. A ray cast whose [`RayCastVisibility`] is `Any` then needs no ECS read for
+        /// a hit: the wait for the entity's location and its two visibility rows was 5-10%
+        /// of a ray at 100k entities (BENCHMARKS.md).
+        ///
+        /// [`RayCastVisibility`]: bevy::picking::mesh_picking::ray_cast::RayCastVisibility
+        visibility_rows: bool,
     },
 }
 
@@ -160,6 +179,7 @@ impl SlotMeshTable {
             Some(cell) => SlotMeshLookup::Mesh {
                 cell,
                 two_sided: entry.two_sided,
+                visibility_rows: entry.visibility_rows,
             },
         })
     }
@@ -184,10 +204,9 @@ impl SlotMeshTable {
         self.meshes.clear();
     }
 
-    /// Writes the entry of `slot`, now held by `entity`, whose ray-cast mesh and back-face
-    /// rule are `mesh` (see [`ray_cast_mesh`]; `None`: no mesh).
-    fn write(&mut self, slot: u32, entity: Entity, mesh: Option<(AssetId<Mesh>, bool)>) {
-        let (mesh, two_sided) = match mesh {
+    /// Writes the entry of `slot`, now held by `entity`, from what its components say.
+    fn write(&mut self, slot: u32, entity: Entity, source: SlotMeshSource) {
+        let (mesh, two_sided) = match source.mesh {
             None => (NO_MESH, false),
             Some((id, two_sided)) => {
                 let next = self.meshes.len() as u32;
@@ -209,16 +228,28 @@ impl SlotMeshTable {
             entity: Some(entity),
             mesh,
             two_sided,
+            visibility_rows: source.visibility_rows,
         };
+    }
+
+    /// Notes that the entity in `slot` lost a visibility component.
+    fn forget_visibility_rows(&mut self, slot: u32, entity: Entity) {
+        if let Some(entry) = self.by_slot.get_mut(slot as usize)
+            && entry.entity == Some(entity)
+        {
+            entry.visibility_rows = false;
+        }
     }
 }
 
-/// What decides a slot's entry (see [`ray_cast_mesh`]).
+/// What decides a slot's entry (see [`SlotMeshSource`]).
 type MeshComponentsQuery = (
     Option<&'static Mesh3d>,
     Option<&'static Mesh2d>,
     Option<&'static SimplifiedMesh>,
     Has<RayCastBackfaces>,
+    Has<InheritedVisibility>,
+    Has<ViewVisibility>,
 );
 
 /// Entities that lost a mesh component (or `RayCastBackfaces`) since the last refresh: a
@@ -238,9 +269,28 @@ fn queue_removed_mesh(
     }
 }
 
-/// Registers the removal observer that feeds [`PendingSlotMeshes`].
+/// Clears the entry's visibility flag of an entity that lost a visibility component, in
+/// the observer rather than at the next refresh: a ray cast later in the same frame must not
+/// hit what Bevy's ray cast can no longer hit. (Gaining them back needs no hook: an entry
+/// without the flag reads the rows, which are then found.)
+fn forget_removed_visibility(
+    event: On<Remove, (InheritedVisibility, ViewVisibility)>,
+    trees: Res<AccelTrees>,
+    mut table: ResMut<SlotMeshTable>,
+) {
+    if !table.active {
+        return;
+    }
+    let entity = event.event_target();
+    if let Some((slot, _)) = trees.location(entity) {
+        table.forget_visibility_rows(slot, entity);
+    }
+}
+
+/// Registers the removal observers that keep entries current between refreshes.
 pub(crate) fn add_slot_mesh_observers(app: &mut App) {
     app.add_observer(queue_removed_mesh);
+    app.add_observer(forget_removed_visibility);
 }
 
 /// Whether the table should be kept this frame.
@@ -298,8 +348,18 @@ pub(crate) fn keep_slot_mesh_table(
         return;
     }
     let entry_of = |entity: Entity| {
-        let (mesh3d, mesh2d, simplified, backfaces) = components.get(entity).ok()?;
-        ray_cast_mesh(mesh3d, mesh2d, simplified, backfaces).map(|(h, two)| (h.id(), two))
+        let Ok((mesh3d, mesh2d, simplified, backfaces, inherited, view)) = components.get(entity)
+        else {
+            return SlotMeshSource {
+                mesh: None,
+                visibility_rows: false,
+            };
+        };
+        SlotMeshSource {
+            mesh: ray_cast_mesh(mesh3d, mesh2d, simplified, backfaces)
+                .map(|(h, two)| (h.id(), two)),
+            visibility_rows: inherited && view,
+        }
     };
     if !table.active {
         // Anything may have changed since the table was last kept: fill it from scratch.

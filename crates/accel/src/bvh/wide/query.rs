@@ -81,7 +81,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        visit_ray(self, ray, |_| {}, visit)
+        visit_ray::<N, false, L, _, _>(self, ray, |_| {}, visit)
     }
 
     fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
@@ -89,7 +89,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         A: FnMut(u32),
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        visit_ray(self, ray, announce, visit)
+        visit_ray::<N, true, L, _, _>(self, ray, announce, visit)
     }
 }
 

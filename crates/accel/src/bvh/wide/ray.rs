@@ -157,7 +157,14 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 /// The loop descends straight into the nearest child and pushes only the others: with one
 /// child hit (the common case deep in a tree) a node costs no stack traffic and no sort
 /// (Embree's BVH-N traversal does the same, Wald et al. 2014).
-pub(super) fn visit_ray<const N: usize, L, A, F>(
+///
+/// `COSTLY_LEAVES` says that visiting a primitive takes long next to a node fetch (an
+/// announcing walk's, whose primitives are entities with a mesh behind them): the interior
+/// children a node's ray hits are then asked for before its leaves are visited, so that their
+/// fetch overlaps that work instead of following it. On the picking bench that took 1.5-2.7% off
+/// a ray at 10^5 entities (BENCHMARKS.md); a mesh BVH's leaves are four-triangle tests, too
+/// short to hide a fetch behind, and its walks leave it off.
+pub(super) fn visit_ray<const N: usize, const COSTLY_LEAVES: bool, L, A, F>(
     tree: &WideBvh<N, L>,
     ray: &mut Ray,
     mut announce: A,
@@ -183,6 +190,14 @@ pub(super) fn visit_ray<const N: usize, L, A, F>(
         // leaf order the picking bench's rays reached 8% more candidates (and ran about 4%
         // slower at 10^4 and 10^5 entities, BENCHMARKS.md).
         let mut leaf_hits = mask & leaves;
+        if COSTLY_LEAVES && leaf_hits != 0 {
+            let mut inner = mask & !leaves;
+            while inner != 0 {
+                let slot = inner.trailing_zeros() as usize;
+                inner &= inner - 1;
+                prefetch_node(&tree.nodes[node.child(slot) as usize]);
+            }
+        }
         // One leaf needs no announcement: its first primitive is visited at once anyway.
         // `get`, not indexing: with no panic to keep, a walk whose hook does nothing (every
         // `walk_ray`, the mesh BVHs' rays among them) compiles this loop away.
