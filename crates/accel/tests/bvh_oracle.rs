@@ -72,6 +72,12 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     bvh8.validate(boxes)
         .unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
     check_queries(&bvh8, boxes, seed, n_queries);
+    let mut inlined = bvh8.clone();
+    inlined.inline_single_leaves();
+    inlined
+        .validate(boxes)
+        .unwrap_or_else(|e| panic!("8-wide, ids inlined {cfg:?}: {e}"));
+    check_queries(&inlined, boxes, seed, n_queries);
     // The quantized layout is for finite geometry (its docs say so): unbounded boxes are
     // clamped to the largest float.
     if boxes.iter().all(|b| !b.is_valid() || b.is_finite()) {
@@ -558,4 +564,63 @@ fn lbvh_matches_brute_force_and_honours_its_stopping_rules() {
     bvh.validate(&nested).unwrap();
     let s = tree_stats(&bvh, &cfg.sah);
     assert!(s.max_depth <= 15, "{s:?}");
+}
+
+/// Ids stored in the nodes ([`Bvh8::inline_single_leaves`]) answer as the primitive array
+/// does: the announcing walk the picking casts use announces and visits the same ids in the
+/// same order as on the tree without them, before and after a refit. Trees of
+/// single-primitive leaves are where most ids are inlined.
+#[test]
+fn inlined_leaf_ids_answer_announcing_walks_and_survive_refits() {
+    let one_per_leaf = BuildConfig {
+        max_leaf_size: 1,
+        ..BuildConfig::default()
+    };
+    for (kind, seed) in [(SceneKind::Uniform, 1), (SceneKind::Clustered, 2)] {
+        let mut boxes = scene(kind, 3_000, seed);
+        let bvh = Bvh::build(&boxes, &one_per_leaf);
+        let mut plain = Bvh8::from_bvh(&bvh);
+        let mut inlined = plain.clone();
+        inlined.inline_single_leaves();
+        let inlined_slots = inlined
+            .nodes()
+            .iter()
+            .flat_map(|n| n.count)
+            .filter(|&c| c & accel::bvh::wide::INLINE_PRIMITIVE != 0)
+            .count();
+        assert_eq!(
+            inlined_slots,
+            boxes.len(),
+            "{kind:?}: one primitive per leaf"
+        );
+        let mut rng = Rng::new(seed);
+        for round in 0..2 {
+            inlined.validate(&boxes).unwrap();
+            let walk = |tree: &Bvh8, ray: &accel::Ray| {
+                let events = core::cell::RefCell::new(Vec::new());
+                let hit = accel::query::ray_walk::closest_hit_announcing(
+                    tree,
+                    ray,
+                    |p| events.borrow_mut().push((true, p)),
+                    |p, r| {
+                        events.borrow_mut().push((false, p));
+                        r.intersect_aabb(&boxes[p as usize])
+                    },
+                );
+                (hit.map(|h| h.t), events.into_inner())
+            };
+            for ray in rays(400, seed + round, 120.0) {
+                let (t, events) = walk(&inlined, &ray);
+                assert_eq!(t, closest_brute(&boxes, &ray), "{kind:?}");
+                assert_eq!(events, walk(&plain, &ray).1, "{kind:?}, round {round}");
+            }
+            // Move a third of the boxes and refit both.
+            for b in boxes.iter_mut().step_by(3) {
+                let d = rng.vec3(-15.0, 15.0);
+                *b = Aabb::new(b.min + d, b.max + d);
+            }
+            plain.refit(|p| boxes[p as usize]);
+            inlined.refit(|p| boxes[p as usize]);
+        }
+    }
 }

@@ -33,6 +33,15 @@ pub enum ValidationError {
     InvalidBounds(u32),
     /// An empty leaf.
     EmptyLeaf(u32),
+    /// A wide node's inlined primitive id (see
+    /// [`WideBvh::inline_single_leaves`](super::wide::WideBvh::inline_single_leaves)) is not
+    /// the id at its slot's position in the primitive array.
+    InlinePrimitiveMismatch {
+        /// The node.
+        node: u32,
+        /// The inlined id.
+        primitive: u32,
+    },
 }
 
 impl fmt::Display for ValidationError {

@@ -55,7 +55,8 @@ const VIRTUAL_ROOT: u32 = u32::MAX;
 #[derive(Clone, Debug, Default)]
 pub struct StaticDynamicPair {
     static_tree: Bvh,
-    /// The static tree collapsed to 8-wide nodes, for rays (same primitive ids).
+    /// The static tree collapsed to 8-wide nodes, for rays (same primitive ids), with its
+    /// single-primitive leaves' ids in the nodes ([`Bvh8::inline_single_leaves`]).
     static_wide: Bvh8,
     /// [`Bvh::subtree_ranges`] of the static tree: a frustum walk emits each subtree it
     /// proves inside with one read instead of two walks down the subtree's edges.
@@ -74,7 +75,7 @@ impl StaticDynamicPair {
     /// The pair of a static tree and a dynamic one.
     pub fn new(static_tree: Bvh, dynamic: DynamicBvh) -> Self {
         Self {
-            static_wide: Bvh8::from_bvh(&static_tree),
+            static_wide: wide_for_rays(&static_tree),
             static_ranges: static_tree.subtree_ranges(),
             static_tree,
             dynamic,
@@ -91,7 +92,7 @@ impl StaticDynamicPair {
 
     /// Replaces the static tree, returning the old one.
     pub fn set_static(&mut self, static_tree: Bvh) -> Bvh {
-        self.static_wide = Bvh8::from_bvh(&static_tree);
+        self.static_wide = wide_for_rays(&static_tree);
         self.static_ranges = static_tree.subtree_ranges();
         core::mem::replace(&mut self.static_tree, static_tree)
     }
@@ -411,6 +412,13 @@ impl RayWalk for StaticDynamicPair {
             }
         }
     }
+}
+
+/// The static tree as rays walk it: 8-wide, ids inlined.
+fn wide_for_rays(static_tree: &Bvh) -> Bvh8 {
+    let mut wide = Bvh8::from_bvh(static_tree);
+    wide.inline_single_leaves();
+    wide
 }
 
 /// Walks the dynamic tree's ray snapshot when there is one, else the binary tree.

@@ -57,6 +57,8 @@ impl Held {
         for p in &mut wide.primitive_indices {
             *p = leaves.ids[*p as usize];
         }
+        // Single-entity leaves, most of this tree's: see `inline_single_leaves`.
+        wide.inline_single_leaves();
         let end = leaves.arena.iter().max().map_or(0, |&a| a as usize + 1);
         let mut position_of = vec![NOT_A_LEAF; end];
         for (position, &leaf) in leaf_at.iter().enumerate() {

@@ -178,7 +178,14 @@ pub(super) fn validate<const N: usize, L: WideLayout<N>>(
                     continue;
                 }
                 let first = n.child(i) as usize;
-                for &p in &tree.primitive_indices[first..first + n.count(i) as usize] {
+                let prims = &tree.primitive_indices[first..first + n.count(i) as usize];
+                // An inlined id must be the one its slot's position in the array names.
+                if let Some(p) = n.inline_primitive(i)
+                    && prims != [p]
+                {
+                    return Err(ValidationError::InlinePrimitiveMismatch { node, primitive: p });
+                }
+                for &p in prims {
                     let pb = bounds
                         .get(p as usize)
                         .copied()

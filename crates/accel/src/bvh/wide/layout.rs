@@ -2,7 +2,7 @@
 //! the quantized layouts.
 
 use super::ray::SlotRayTest;
-use super::{EMPTY_SLOT, WideNode};
+use super::{EMPTY_SLOT, INLINE_PRIMITIVE, WideNode};
 use crate::Aabb;
 use glam::Vec3A;
 
@@ -48,6 +48,15 @@ pub trait WideLayout<const N: usize>:
     /// Primitive count of a leaf slot; 0 for interior and unused slots.
     fn count(&self, slot: usize) -> u32;
 
+    /// The primitive of a single-primitive leaf slot whose id the node stores itself (see
+    /// [`super::WideBvh::inline_single_leaves`]); `None` for every other slot, whose
+    /// primitives are read from the tree's primitive array at [`Self::child`].
+    #[inline]
+    fn inline_primitive(&self, slot: usize) -> Option<u32> {
+        let _ = slot;
+        None
+    }
+
     /// The union of the used slots' boxes.
     #[inline]
     fn bounds(&self) -> Aabb {
@@ -70,7 +79,8 @@ pub trait WideLayout<const N: usize>:
 }
 
 impl<const N: usize> WideLayout<N> for WideNode<N> {
-    const MAX_LEAF_PRIMITIVES: u32 = u32::MAX;
+    // The count's top bit marks an inlined primitive.
+    const MAX_LEAF_PRIMITIVES: u32 = INLINE_PRIMITIVE - 1;
 
     fn from_float(node: &WideNode<N>) -> Self {
         *node
@@ -114,6 +124,17 @@ impl<const N: usize> WideLayout<N> for WideNode<N> {
 
     #[inline]
     fn count(&self, slot: usize) -> u32 {
-        self.count[slot]
+        let count = self.count[slot];
+        if count & INLINE_PRIMITIVE != 0 {
+            1
+        } else {
+            count
+        }
+    }
+
+    #[inline]
+    fn inline_primitive(&self, slot: usize) -> Option<u32> {
+        let count = self.count[slot];
+        (count & INLINE_PRIMITIVE != 0).then_some(count & !INLINE_PRIMITIVE)
     }
 }

@@ -6,6 +6,10 @@ use glam::Vec3A;
 /// Marks an unused child slot (its box is empty, so no test ever passes it).
 pub const EMPTY_SLOT: u32 = u32::MAX;
 
+/// Set in a leaf slot's `count` when the slot holds one primitive whose id is stored in the
+/// count's other bits (see [`WideBvh::inline_single_leaves`](super::WideBvh::inline_single_leaves)).
+pub const INLINE_PRIMITIVE: u32 = 1 << 31;
+
 /// A node with up to `N` children. Child boxes are stored per coordinate (`min_x[0..N]`, ...)
 /// so one SIMD load fetches a coordinate of every child.
 ///
@@ -29,7 +33,9 @@ pub struct WideNode<const N: usize> {
     pub max_z: [f32; N],
     /// Node index (interior), first primitive slot (leaf) or [`EMPTY_SLOT`].
     pub child: [u32; N],
-    /// Primitive count of a leaf slot; 0 for interior and unused slots.
+    /// Primitive count of a leaf slot; 0 for interior and unused slots. A single-primitive
+    /// leaf may instead hold [`INLINE_PRIMITIVE`]` | id`, its primitive's id (the count is
+    /// then 1; read it through [`WideLayout::count`](super::WideLayout::count)).
     pub count: [u32; N],
 }
 

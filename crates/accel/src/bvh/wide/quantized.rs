@@ -167,7 +167,7 @@ impl<const N: usize> WideLayout<N> for QuantizedNode<N> {
             if node.is_used(slot) {
                 *b = node.child_aabb(slot);
             }
-            q.count[slot] = u8::try_from(node.count[slot])
+            q.count[slot] = u8::try_from(WideLayout::count(node, slot))
                 .expect("leaves are split to at most 255 primitives before quantizing");
         }
         q.leaves = leaf_mask_of(&q.count) as u8;

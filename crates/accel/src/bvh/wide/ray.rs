@@ -206,6 +206,10 @@ pub(super) fn visit_ray<const N: usize, const COSTLY_LEAVES: bool, L, A, F>(
             while announced != 0 {
                 let slot = announced.trailing_zeros() as usize;
                 announced &= announced - 1;
+                if let Some(p) = node.inline_primitive(slot) {
+                    announce(p);
+                    continue;
+                }
                 let first = node.child(slot) as usize;
                 let count = node.count(slot) as usize;
                 for &p in tree
@@ -239,6 +243,12 @@ pub(super) fn visit_ray<const N: usize, const COSTLY_LEAVES: bool, L, A, F>(
             if t > ray.t_max {
                 // Sorted: every leaf after this one starts beyond the range too.
                 break;
+            }
+            if let Some(p) = node.inline_primitive(slot as usize) {
+                if visit(p, ray).is_break() {
+                    return;
+                }
+                continue;
             }
             let first = node.child(slot as usize) as usize;
             for &p in &tree.primitive_indices[first..first + node.count(slot as usize) as usize] {
