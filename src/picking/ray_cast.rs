@@ -43,7 +43,9 @@ type MeshTargetData = (
 );
 
 /// What a mesh ray cast reads of a candidate whose mesh the [`SlotMeshTable`] gave, once
-/// the ray has hit that mesh: whether it counts.
+/// the ray has hit that mesh: whether it counts. Not read at all when the visibility setting
+/// is `Any` and the table knows the entity has both rows (see
+/// [`SlotMeshLookup::Mesh`]'s `visibility_rows`).
 type MeshHitData = (Read<InheritedVisibility>, Read<ViewVisibility>);
 
 /// What a bounds-only ray cast reads: any tracked entity, visible unless its visibility
