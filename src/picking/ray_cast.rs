@@ -58,8 +58,8 @@ type BoundsTargetData = (
 /// A hit found during traversal, before the blocking cut and the sort.
 struct PendingHit {
     entity: Entity,
-    /// Entry distance into the entity's box: orders equal-distance hits as Bevy's AABB-sorted
-    /// candidate list does.
+    /// Entry distance into the entity's box (its oriented box for mesh hits): orders
+    /// equal-distance hits as Bevy's candidate list, sorted by that distance, does.
     entry: f32,
     hit: RayMeshHit,
 }
@@ -301,19 +301,19 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         // The traversal's range shrinks only at blocking hits (the callback returns their
         // distance); other hits are kept without shrinking it, as Bevy keeps collecting past
         // hits whose entity does not pass `early_exit_test`.
-        // Where a wide node holds several candidates in range, their slot records are asked
-        // for together: each candidate's test starts with a miss on its record, and those
-        // misses then overlap instead of following one another.
-        let announce = |slot| trees.prefetch_candidate(slot);
+        // Where a wide node holds several candidates in range, their slot records (and slot
+        // mesh table entries) are asked for together: each candidate's test starts with a miss
+        // on its record, and those misses then overlap instead of following one another.
+        let announce = |slot| {
+            trees.prefetch_candidate(slot);
+            slot_meshes.prefetch(slot);
+        };
         // Whether a candidate passes the visibility setting and the filter.
         let counts = |entity, inherited, view| {
             visible(settings.visibility, inherited, view) && (settings.filter)(entity)
         };
         let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
-            // The exact box first: most candidates of a leaf fail it, and they then cost no
-            // entity lookup.
-            let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
-            let (entity, hit) = match target {
+            let (entity, entry, hit) = match target {
                 Target::Meshes => {
                     let entity = trees.entity(slot)?;
                     // With the table on, the ECS is read only for the meshes a ray hits.
@@ -329,10 +329,13 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                         Some(SlotMeshLookup::Mesh { .. }) => {}
                     }
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
-                    // any component read: a third of the candidates stop here.
+                    // any component read: a third of the candidates stop here. No test of the
+                    // exact world box first: the oriented box lies inside it, and the static
+                    // trees' boxes are those boxes already (rays at 10^5 entities ran 1% faster
+                    // without it).
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
-                    local.intersect_aabb(&frame.local_bounds)?;
+                    let entry = local.intersect_aabb(&frame.local_bounds)?;
                     let hit = if let Some(SlotMeshLookup::Mesh {
                         cell,
                         two_sided,
@@ -358,9 +361,12 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                         let shape = cache.get_or_build(handle.id(), meshes)?;
                         shape_hit(&shape, frame, r, &local, two_sided)?
                     };
-                    (entity, hit)
+                    (entity, entry, hit)
                 }
                 Target::Bounds => {
+                    // The exact box first: most candidates of a leaf fail it, and they then
+                    // cost no entity lookup.
+                    let entry = r.intersect_aabb(&trees.world_bounds(slot))?;
                     let entity = trees.entity(slot)?;
                     let (inherited, view) = bounds_targets.get(entity).ok()?;
                     if !counts(entity, inherited, view) {
@@ -369,7 +375,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
                     let hit = box_hit(frame, r, &local)?;
-                    (entity, hit)
+                    (entity, entry, hit)
                 }
             };
             let distance = hit.distance;

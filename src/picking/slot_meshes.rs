@@ -166,6 +166,14 @@ impl SlotMeshTable {
             .is_some_and(|e| e.entity == Some(entity))
     }
 
+    /// Asks for `slot`'s entry ahead of its [`SlotMeshTable::lookup`]. A hint only.
+    #[inline]
+    pub(crate) fn prefetch(&self, slot: u32) {
+        if let Some(entry) = self.by_slot.get(slot as usize) {
+            crate::prefetch::prefetch(entry);
+        }
+    }
+
     /// What the table says of the entity in `slot`; `None` when it has no entry for that
     /// entity (the table is off, or the slot changed hands after the last sync).
     #[inline]

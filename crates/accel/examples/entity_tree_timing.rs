@@ -1,10 +1,11 @@
 //! Prints what a rebuild of the plugin's static entity tree costs: the build under each
 //! split strategy with the plugin's stopping rules and SAH costs (with the tree's SAH cost),
-//! then the collapse of the PLOC tree to the 8-wide layouts, the step that follows every
-//! static-tree build and every ray copy of the dynamic tree. Random boxes, best of 5.
+//! then the collapse of the PLOC tree to the wide layouts, the step that follows every
+//! static-tree build (the 16-wide ray copy, ids inlined) and every ray copy of the dynamic
+//! tree (8-wide). Random boxes, best of 5.
 //! `cargo run --release -p accel --example entity_tree_timing -- 1000000`.
 
-use accel::bvh::wide::{Bvh8, QBvh8};
+use accel::bvh::wide::{Bvh8, Bvh16, QBvh8};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts, SplitStrategy};
 use glam::Vec3A;
 use std::time::{Duration, Instant};
@@ -61,8 +62,15 @@ fn main() {
     let bvh = Bvh::build(&boxes, &config);
     let (wide, wide_nodes) = best_of(&mut || Bvh8::from_bvh(&bvh).nodes().len());
     let (quantized, _) = best_of(&mut || QBvh8::from_bvh(&bvh).nodes().len());
+    // What the plugin makes for rays after each static build.
+    let (wide16, wide16_nodes) = best_of(&mut || {
+        let mut wide = Bvh16::from_bvh(&bvh);
+        wide.inline_single_leaves();
+        wide.nodes().len()
+    });
     println!(
-        "{n} boxes, {} binary nodes: Bvh8 {wide:?}, QBvh8 {quantized:?} ({wide_nodes} wide nodes; best of 5)",
+        "{n} boxes, {} binary nodes: Bvh8 {wide:?}, QBvh8 {quantized:?} ({wide_nodes} wide \
+         nodes), Bvh16 with ids inlined {wide16:?} ({wide16_nodes} nodes); best of 5",
         bvh.nodes().len()
     );
 }

@@ -5,7 +5,7 @@ mod scenes;
 
 use accel::bvh::SphereBvh;
 use accel::bvh::stats::tree_stats;
-use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
+use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8, WideBvh};
 use accel::{Aabb, BuildConfig, Bvh, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
 use core::ops::ControlFlow;
 use scenes::{Rng, SceneKind, frustum_hits, random_frustum, rays, scene};
@@ -78,6 +78,18 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         .validate(boxes)
         .unwrap_or_else(|e| panic!("8-wide, ids inlined {cfg:?}: {e}"));
     check_queries(&inlined, boxes, seed, n_queries);
+    check_announcing_walk(&inlined, boxes, seed, n_queries);
+    let mut bvh16 = Bvh16::from_bvh(&bvh);
+    bvh16
+        .validate(boxes)
+        .unwrap_or_else(|e| panic!("16-wide {cfg:?}: {e}"));
+    check_queries(&bvh16, boxes, seed, n_queries);
+    bvh16.inline_single_leaves();
+    bvh16
+        .validate(boxes)
+        .unwrap_or_else(|e| panic!("16-wide, ids inlined {cfg:?}: {e}"));
+    check_queries(&bvh16, boxes, seed, n_queries);
+    check_announcing_walk(&bvh16, boxes, seed, n_queries);
     // The quantized layout is for finite geometry (its docs say so): unbounded boxes are
     // clamped to the largest float.
     if boxes.iter().all(|b| !b.is_valid() || b.is_finite()) {
@@ -88,6 +100,29 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         check_queries(&qbvh8, boxes, seed, n_queries);
     }
     check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
+}
+
+/// The announcing walk (the picking casts', which runs a copy compiled with AVX2 where the
+/// CPU has it) finds the closest hit, and announces every primitive it visits with others
+/// of the same node before any of them is visited.
+fn check_announcing_walk<const N: usize>(tree: &WideBvh<N>, boxes: &[Aabb], seed: u64, n: usize) {
+    for ray in rays(n, seed, 120.0) {
+        let announced = core::cell::RefCell::new(Vec::new());
+        let hit = accel::query::ray_walk::closest_hit_announcing(
+            tree,
+            &ray,
+            |p| announced.borrow_mut().push(p),
+            |p, r| r.intersect_aabb(&boxes[p as usize]),
+        );
+        assert_eq!(
+            hit.map(|h| h.t),
+            closest_brute(boxes, &ray),
+            "{N}-wide, ray {ray:?}"
+        );
+        if let Some(h) = hit {
+            assert_eq!(ray.intersect_aabb(&boxes[h.primitive as usize]), Some(h.t));
+        }
+    }
 }
 
 /// The span table gives every node the primitives found by walking down its subtree.
@@ -253,6 +288,9 @@ fn a_million_primitives_build_validate_and_query() {
     bvh8.validate(&boxes).unwrap();
     let qbvh8 = QBvh8::from_bvh(&bvh);
     qbvh8.validate(&boxes).unwrap();
+    let mut bvh16 = Bvh16::from_bvh(&bvh);
+    bvh16.inline_single_leaves();
+    bvh16.validate(&boxes).unwrap();
     for ray in rays(200, 6, 120.0) {
         let want = closest_brute(&boxes, &ray);
         let got = bvh.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
@@ -260,6 +298,8 @@ fn a_million_primitives_build_validate_and_query() {
         let got = bvh8.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
         assert_eq!(got.map(|h| h.t), want);
         let got = qbvh8.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
+        assert_eq!(got.map(|h| h.t), want);
+        let got = bvh16.cast_ray(&ray, |i, r| r.intersect_aabb(&boxes[i as usize]));
         assert_eq!(got.map(|h| h.t), want);
     }
 }
@@ -572,6 +612,11 @@ fn lbvh_matches_brute_force_and_honours_its_stopping_rules() {
 /// single-primitive leaves are where most ids are inlined.
 #[test]
 fn inlined_leaf_ids_answer_announcing_walks_and_survive_refits() {
+    inlined_leaf_ids_case::<8>();
+    inlined_leaf_ids_case::<16>();
+}
+
+fn inlined_leaf_ids_case<const N: usize>() {
     let one_per_leaf = BuildConfig {
         max_leaf_size: 1,
         ..BuildConfig::default()
@@ -579,7 +624,7 @@ fn inlined_leaf_ids_answer_announcing_walks_and_survive_refits() {
     for (kind, seed) in [(SceneKind::Uniform, 1), (SceneKind::Clustered, 2)] {
         let mut boxes = scene(kind, 3_000, seed);
         let bvh = Bvh::build(&boxes, &one_per_leaf);
-        let mut plain = Bvh8::from_bvh(&bvh);
+        let mut plain = WideBvh::<N>::from_bvh(&bvh);
         let mut inlined = plain.clone();
         inlined.inline_single_leaves();
         let inlined_slots = inlined
@@ -596,7 +641,7 @@ fn inlined_leaf_ids_answer_announcing_walks_and_survive_refits() {
         let mut rng = Rng::new(seed);
         for round in 0..2 {
             inlined.validate(&boxes).unwrap();
-            let walk = |tree: &Bvh8, ray: &accel::Ray| {
+            let walk = |tree: &WideBvh<N>, ray: &accel::Ray| {
                 let events = core::cell::RefCell::new(Vec::new());
                 let hit = accel::query::ray_walk::closest_hit_announcing(
                     tree,

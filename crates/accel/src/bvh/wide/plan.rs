@@ -30,7 +30,7 @@ pub(super) fn plan_slots<const N: usize>(binary: &[BvhNode]) -> Vec<[Option<Plan
     const {
         assert!(
             N <= MAX_WIDTH,
-            "the plan packs its choices for at most 8 slots"
+            "the plan packs its choices for at most 16 slots"
         )
     };
     let choices = least_cost_choices::<N>(binary);
@@ -76,7 +76,7 @@ fn plan_from<const N: usize>(
 }
 
 /// The widest node the packed [`Choice`] describes.
-const MAX_WIDTH: usize = 8;
+const MAX_WIDTH: usize = 16;
 
 /// For `k` slots, the left child's possible shares `1..k`, the most even first.
 const EVEN_FIRST: [[u8; MAX_WIDTH - 1]; MAX_WIDTH + 1] = {
@@ -102,28 +102,52 @@ const EVEN_FIRST: [[u8; MAX_WIDTH - 1]; MAX_WIDTH + 1] = {
 };
 
 /// What the least-cost plan does with an interior binary node given `k` slots, for each `k`
-/// in `2..=8`: whether it is opened (its children spread over the `k` slots) or made a wide
+/// in `2..=16`: whether it is opened (its children spread over the `k` slots) or made a wide
 /// node of its own (one slot), and, opened, how many of the slots its left child takes.
-/// Packed in 3 bits (the left share less one) and 1 bit per `k`.
-#[derive(Clone, Copy, Default)]
-struct Choice(u32);
+///
+/// Packed in one word: the left share less one in 4 bits for each `k` in `3..=16` (with two
+/// slots it is always one), and the least `k` that opens the node in the top 5 bits. One
+/// threshold is enough because a subtree spread over more slots never costs more (each split
+/// of `k` slots is still there with `k + 1`, one child given a slot more), so once opening
+/// beats a node of its own it does for every larger `k`. Why so tight: the choices of every
+/// binary node are kept until the plan is laid out, two million of them at a million
+/// primitives.
+#[derive(Clone, Copy)]
+struct Choice(u64);
+
+impl Default for Choice {
+    fn default() -> Self {
+        Self(Self::NEVER_OPENS << Self::THRESHOLD_SHIFT)
+    }
+}
 
 impl Choice {
+    const THRESHOLD_SHIFT: u32 = 59;
+    /// A threshold no `k` reaches.
+    const NEVER_OPENS: u64 = 31;
+
     #[inline]
     fn opens(self, k: usize) -> bool {
-        k >= 2 && self.0 & (1 << (21 + k - 2)) != 0
+        k >= 2 && k as u64 >= self.0 >> Self::THRESHOLD_SHIFT
     }
 
     #[inline]
     fn left_share(self, k: usize) -> usize {
-        ((self.0 >> (3 * (k - 2))) & 7) as usize + 1
+        if k <= 2 {
+            return 1;
+        }
+        ((self.0 >> (4 * (k - 3))) & 15) as usize + 1
     }
 
+    /// Records the choice for `k` slots; called for `k` in increasing order.
     #[inline]
     fn set(&mut self, k: usize, left_share: usize, opens: bool) {
-        self.0 |= ((left_share - 1) as u32) << (3 * (k - 2));
-        if opens {
-            self.0 |= 1 << (21 + k - 2);
+        if k > 2 {
+            self.0 |= ((left_share - 1) as u64) << (4 * (k - 3));
+        }
+        if opens && !self.opens(k) {
+            let kept = self.0 & ((1 << Self::THRESHOLD_SHIFT) - 1);
+            self.0 = kept | (k as u64) << Self::THRESHOLD_SHIFT;
         }
     }
 }
@@ -138,7 +162,8 @@ impl Choice {
 ///
 /// A subtree with `s <= N` leaves costs nothing from `k = s` on, so the splits tried are capped
 /// by the children's leaf counts: most nodes of a tree sit near its leaves and have few, and
-/// the programme then costs a few operations for them instead of the 28 of a full split.
+/// the programme then costs a few operations for them instead of the `N(N - 1) / 2` of full
+/// splits (28 for eight slots).
 fn least_cost_choices<const N: usize>(binary: &[BvhNode]) -> Vec<Choice> {
     let mut choices = vec![Choice::default(); binary.len()];
     if binary.is_empty() {
@@ -199,8 +224,13 @@ fn least_cost_choices<const N: usize>(binary: &[BvhNode]) -> Vec<Choice> {
         let mut costs = [as_node; N];
         let mut choice = Choice::default();
         for k in 2..=N {
-            // `<=`: on a tie (zero-area boxes) opening the node saves a node.
+            // `<=`: on a tie (zero-area boxes) opening the node saves a node. `split` never
+            // grows with `k`, so this holds from some `k` on (what `Choice` packs).
             let opens = split[k] <= as_node;
+            debug_assert!(
+                !choice.opens(k - 1) || opens,
+                "opening pays for every larger k"
+            );
             if opens {
                 costs[k - 1] = split[k];
             }
@@ -362,6 +392,7 @@ mod tests {
                 if !bvh.nodes.is_empty() {
                     check::<4>(name, &bvh.nodes);
                     check::<8>(name, &bvh.nodes);
+                    check::<16>(name, &bvh.nodes);
                 }
             }
         }

@@ -89,8 +89,39 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         A: FnMut(u32),
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
+        // Announcing walks are those of trees over costly primitives (the plugin's entities),
+        // and such trees are large and traced one ray at a time. Their loop runs a second
+        // time compiled with AVX2 where the CPU has it: the same SSE arithmetic, in the VEX
+        // encoding, whose three-operand forms drop the register copies of the node test
+        // (1.5-2% a ray at 10^5 entities, paired; 8-lane node tests ran 5% slower than that).
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            unsafe { visit_ray_avx2(self, ray, announce, visit) };
+            return;
+        }
         visit_ray::<N, true, L, _, _>(self, ray, announce, visit)
     }
+}
+
+/// The announcing walk compiled with AVX2 (see `walk_ray_announcing`). Its results are
+/// bit-identical: the same IEEE operations, with no fused multiply-add.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn visit_ray_avx2<const N: usize, L, A, V>(
+    tree: &WideBvh<N, L>,
+    ray: &mut Ray,
+    announce: A,
+    visit: V,
+) where
+    L: WideLayout<N>,
+    A: FnMut(u32),
+    V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+{
+    visit_ray::<N, true, L, _, _>(tree, ray, announce, visit)
 }
 
 impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {

@@ -164,6 +164,9 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 /// fetch overlaps that work instead of following it. On the picking bench that took 1.5-2.7% off
 /// a ray at 10^5 entities (BENCHMARKS.md); a mesh BVH's leaves are four-triangle tests, too
 /// short to hide a fetch behind, and its walks leave it off.
+// Always inlined, so that the AVX2 copy of the announcing walk (`query.rs`) compiles this
+// loop with AVX2 instead of calling the SSE one.
+#[inline(always)]
 pub(super) fn visit_ray<const N: usize, const COSTLY_LEAVES: bool, L, A, F>(
     tree: &WideBvh<N, L>,
     ray: &mut Ray,

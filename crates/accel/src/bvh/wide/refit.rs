@@ -7,8 +7,8 @@ use crate::Aabb;
 /// No parent (the root).
 const NO_PARENT: u32 = u32::MAX;
 
-/// Bits of a packed (node, slot) reference taken by the slot (up to 8 slots).
-const SLOT_BITS: u32 = 3;
+/// Bits of a packed (node, slot) reference taken by the slot (up to 16 slots).
+const SLOT_BITS: u32 = 4;
 
 /// Recomputes the slot boxes of node `n` named in `mask` (bit `s`: slot `s`; layouts that
 /// cannot set slots alone get all of them): leaf slots from `bounds_at` (called with each
@@ -124,14 +124,14 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
 }
 
 /// The links [`WideBvh::refit_moved`] climbs: the slot holding each primitive position and
-/// the parent slot of each node (packed as `node << 3 | slot`), with marks. Valid for the
+/// the parent slot of each node (packed as `node << 4 | slot`), with marks. Valid for the
 /// tree it was made from until that tree is rebuilt (refits keep it valid).
 #[derive(Clone, Debug, Default)]
 pub struct RefitPaths {
     slot_of_position: Vec<u32>,
     parent_slot: Vec<u32>,
     /// Per node, the slots marked for recomputation (all clear between refits).
-    dirty_slots: Vec<u8>,
+    dirty_slots: Vec<u16>,
     /// One bit per node: some of its slots are marked.
     marked: Vec<u64>,
 }
@@ -165,7 +165,7 @@ impl RefitPaths {
     #[inline]
     fn mark(&mut self, at: u32) -> bool {
         let n = (at >> SLOT_BITS) as usize;
-        let bit = 1u8 << (at & ((1 << SLOT_BITS) - 1));
+        let bit = 1u16 << (at & ((1 << SLOT_BITS) - 1));
         let was = self.dirty_slots[n] & bit != 0;
         if self.dirty_slots[n] == 0 {
             self.marked[n / 64] |= 1u64 << (n % 64);
@@ -177,7 +177,7 @@ impl RefitPaths {
     /// Memory held, in bytes.
     pub fn memory_bytes(&self) -> usize {
         4 * (self.slot_of_position.len() + self.parent_slot.len())
-            + self.dirty_slots.len()
+            + 2 * self.dirty_slots.len()
             + 8 * self.marked.len()
     }
 }
