@@ -68,28 +68,8 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
     bvh4.validate(boxes)
         .unwrap_or_else(|e| panic!("4-wide {cfg:?}: {e}"));
     check_queries(&bvh4, boxes, seed, n_queries);
-    let bvh8 = Bvh8::from_bvh(&bvh);
-    bvh8.validate(boxes)
-        .unwrap_or_else(|e| panic!("8-wide {cfg:?}: {e}"));
-    check_queries(&bvh8, boxes, seed, n_queries);
-    let mut inlined = bvh8.clone();
-    inlined.inline_single_leaves();
-    inlined
-        .validate(boxes)
-        .unwrap_or_else(|e| panic!("8-wide, ids inlined {cfg:?}: {e}"));
-    check_queries(&inlined, boxes, seed, n_queries);
-    check_announcing_walk(&inlined, boxes, seed, n_queries);
-    let mut bvh16 = Bvh16::from_bvh(&bvh);
-    bvh16
-        .validate(boxes)
-        .unwrap_or_else(|e| panic!("16-wide {cfg:?}: {e}"));
-    check_queries(&bvh16, boxes, seed, n_queries);
-    bvh16.inline_single_leaves();
-    bvh16
-        .validate(boxes)
-        .unwrap_or_else(|e| panic!("16-wide, ids inlined {cfg:?}: {e}"));
-    check_queries(&bvh16, boxes, seed, n_queries);
-    check_announcing_walk(&bvh16, boxes, seed, n_queries);
+    check_float_wide::<8>(&bvh, boxes, cfg, seed, n_queries);
+    check_float_wide::<16>(&bvh, boxes, cfg, seed, n_queries);
     // The quantized layout is for finite geometry (its docs say so): unbounded boxes are
     // clamped to the largest float.
     if boxes.iter().all(|b| !b.is_valid() || b.is_finite()) {
@@ -100,6 +80,28 @@ fn check_scene(boxes: &[Aabb], cfg: &BuildConfig, seed: u64, n_queries: usize) {
         check_queries(&qbvh8, boxes, seed, n_queries);
     }
     check_queries(&SphereBvh::from_bvh(&bvh, boxes), boxes, seed, n_queries);
+}
+
+/// An `N`-wide float tree over `bvh` answers as brute force does, plain and with its
+/// single leaves' ids inlined (the entity trees' ray copies), through every query and the
+/// announcing walk.
+fn check_float_wide<const N: usize>(
+    bvh: &Bvh,
+    boxes: &[Aabb],
+    cfg: &BuildConfig,
+    seed: u64,
+    n_queries: usize,
+) {
+    let mut wide = WideBvh::<N>::from_bvh(bvh);
+    for inlined in [false, true] {
+        if inlined {
+            wide.inline_single_leaves();
+        }
+        wide.validate(boxes)
+            .unwrap_or_else(|e| panic!("{N}-wide, ids inlined: {inlined}, {cfg:?}: {e}"));
+        check_queries(&wide, boxes, seed, n_queries);
+        check_announcing_walk(&wide, boxes, seed, n_queries);
+    }
 }
 
 /// The announcing walk (the picking casts', which runs a copy compiled with AVX2 where the

@@ -5,7 +5,7 @@
 //! twice by hand. [`StaticDynamicPair`] presents both as one [`BoundingTree`] under a virtual
 //! root, so every query is one traversal through the shared code of [`crate::query::binary`]
 //! (a closest hit found in one tree prunes the other), while the static tree is never refit.
-//! Rays, the hottest query (picking, the preview), walk the static tree in its 8-wide form
+//! Rays, the hottest query (picking, the preview), walk the static tree in its 16-wide form
 //! instead, then the dynamic tree, the nearer first so its hits prune the other. Rays can walk
 //! an 8-wide snapshot of the dynamic tree too
 //! ([`StaticDynamicPair::snapshot_dynamic_for_rays`]), kept through motion by refits and
