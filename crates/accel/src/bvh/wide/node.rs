@@ -55,6 +55,16 @@ impl<const N: usize> Default for WideNode<N> {
 }
 
 impl<const N: usize> WideNode<N> {
+    /// The six plane arrays in their stored order: minimum x, y, z, then maximum x, y, z (the
+    /// order of [`RayLanes`](super::ray::RayLanes)' plane indices).
+    #[inline(always)]
+    pub(crate) fn planes(&self) -> &[[f32; N]; 6] {
+        const { assert!(core::mem::offset_of!(Self, max_z) == 5 * N * 4) };
+        // SAFETY: `repr(C)` lays the six `[f32; N]` arrays out first and back to back (the
+        // offset of the last is checked above), so together they are one `[[f32; N]; 6]`.
+        unsafe { &*(self as *const Self).cast::<[[f32; N]; 6]>() }
+    }
+
     /// The box of slot `i`.
     #[inline]
     pub fn child_aabb(&self, i: usize) -> Aabb {

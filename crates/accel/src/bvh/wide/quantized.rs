@@ -122,21 +122,21 @@ impl<const N: usize> SlotRayTest<N> for QuantizedNode<N> {
     #[inline(always)]
     fn intersect_slots(&self, ray: &RayLanes, t_max: f32) -> (u32, [f32; N]) {
         // Decoded once for both halves of an 8-wide node: one 8-byte load per plane array.
-        let planes = |q: &[[u8; N]; 3]| {
-            core::array::from_fn::<_, 3, _>(|axis| {
-                let (scale, origin) = (
-                    Vec4::splat(self.scale[axis]),
-                    Vec4::splat(self.origin[axis]),
-                );
-                grid_lanes(&q[axis]).map(|g| g * scale + origin)
-            })
+        let planes = self.planes();
+        let decode = |plane: usize| {
+            let axis = plane % 3;
+            let (scale, origin) = (
+                Vec4::splat(self.scale[axis]),
+                Vec4::splat(self.origin[axis]),
+            );
+            grid_lanes(&planes[plane]).map(|g| g * scale + origin)
         };
-        let (lo, hi) = (planes(&self.lo), planes(&self.hi));
+        let (entry, exit) = (ray.entry_plane.map(decode), ray.exit_plane.map(decode));
         let (mask, entry_t) = slab_test_lanes::<N>(
             |chunk| {
                 (
-                    [lo[0][chunk], lo[1][chunk], lo[2][chunk]],
-                    [hi[0][chunk], hi[1][chunk], hi[2][chunk]],
+                    [entry[0][chunk], entry[1][chunk], entry[2][chunk]],
+                    [exit[0][chunk], exit[1][chunk], exit[2][chunk]],
                 )
             },
             ray,
@@ -150,6 +150,18 @@ impl<const N: usize> SlotRayTest<N> for QuantizedNode<N> {
     #[inline(always)]
     fn leaf_mask(&self) -> u32 {
         u32::from(self.leaves)
+    }
+}
+
+impl<const N: usize> QuantizedNode<N> {
+    /// The six grid arrays in their stored order: low x, y, z, then high x, y, z (the order of
+    /// [`RayLanes`]' plane indices).
+    #[inline(always)]
+    fn planes(&self) -> &[[u8; N]; 6] {
+        const { assert!(core::mem::offset_of!(Self, hi) == core::mem::offset_of!(Self, lo) + 3 * N) };
+        // SAFETY: `repr(C)` lays `lo` and `hi` out back to back (checked above) with byte
+        // alignment, so together they are one `[[u8; N]; 6]`.
+        unsafe { &*(&raw const self.lo).cast::<[[u8; N]; 6]>() }
     }
 }
 
