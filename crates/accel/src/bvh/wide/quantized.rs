@@ -120,7 +120,7 @@ fn grid_lanes<const N: usize>(q: &[u8; N]) -> [Vec4; 2] {
 
 impl<const N: usize> SlotRayTest<N> for QuantizedNode<N> {
     #[inline(always)]
-    fn intersect_slots(&self, ray: &RayLanes, t_max: f32) -> (u32, [f32; N]) {
+    fn intersect_slots(&self, ray: &RayLanes, t_max: f32, entry_t: &mut [f32; N]) -> u32 {
         // Decoded once for both halves of an 8-wide node: one 8-byte load per plane array.
         let planes = self.planes();
         let decode = |plane: usize| {
@@ -132,7 +132,7 @@ impl<const N: usize> SlotRayTest<N> for QuantizedNode<N> {
             grid_lanes(&planes[plane]).map(|g| g * scale + origin)
         };
         let (entry, exit) = (ray.entry_plane.map(decode), ray.exit_plane.map(decode));
-        let (mask, entry_t) = slab_test_lanes::<N>(
+        let mask = slab_test_lanes::<N>(
             |chunk| {
                 (
                     [entry[0][chunk], entry[1][chunk], entry[2][chunk]],
@@ -141,10 +141,11 @@ impl<const N: usize> SlotRayTest<N> for QuantizedNode<N> {
             },
             ray,
             t_max,
+            entry_t,
         );
         // Empty slots decode to inverted but finite boxes, which the widened test could let
         // through on a grazing ray: only live slots count.
-        (mask & u32::from(self.live), entry_t)
+        mask & u32::from(self.live)
     }
 
     #[inline(always)]
