@@ -81,7 +81,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        visit_ray::<N, false, L, _, _>(self, ray, |_| {}, visit)
+        visit_ray::<N, false, false, L, _, _>(self, ray, |_| {}, visit)
     }
 
     fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
@@ -100,7 +100,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
             unsafe { visit_ray_avx2(self, ray, announce, visit) };
             return;
         }
-        visit_ray::<N, true, L, _, _>(self, ray, announce, visit)
+        visit_ray::<N, true, false, L, _, _>(self, ray, announce, visit)
     }
 }
 
@@ -121,7 +121,7 @@ unsafe fn visit_ray_avx2<const N: usize, L, A, V>(
     A: FnMut(u32),
     V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
-    visit_ray::<N, true, L, _, _>(tree, ray, announce, visit)
+    visit_ray::<N, true, true, L, _, _>(tree, ray, announce, visit)
 }
 
 impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
