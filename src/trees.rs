@@ -315,7 +315,7 @@ impl AccelTrees {
         self.pair.refit_dynamic_ray_snapshot();
     }
 
-    /// Builds an 8-wide tree over the dynamic entities for rays, as the static tree is built,
+    /// Builds a 16-wide tree over the dynamic entities for rays, as the static tree is built,
     /// now or on another thread, replacing the one held (see
     /// [`StaticDynamicPair::refresh_dynamic_ray_snapshot`]). Returns whether one is held or
     /// being built.

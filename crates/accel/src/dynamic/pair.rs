@@ -7,13 +7,13 @@
 //! (a closest hit found in one tree prunes the other), while the static tree is never refit.
 //! Rays, the hottest query (picking, the preview), walk the static tree in its 16-wide form
 //! instead, then the dynamic tree, the nearer first so its hits prune the other. Rays can walk
-//! an 8-wide snapshot of the dynamic tree too
+//! a 16-wide snapshot of the dynamic tree too
 //! ([`StaticDynamicPair::snapshot_dynamic_for_rays`]), kept through motion by refits and
 //! dropped at insertions and removals.
 
 use super::ray_snapshot::RaySnapshot;
 use super::{DynamicBvh, DynamicBvhError, LeafHandle, MaintainReport};
-use crate::bvh::wide::{Bvh8, Bvh16};
+use crate::bvh::wide::Bvh16;
 use crate::query::{BoundingTree, RayWalk};
 use crate::{Aabb, BuildConfig, Bvh, Ray};
 use core::ops::ControlFlow;
@@ -62,7 +62,7 @@ pub struct StaticDynamicPair {
     /// proves inside with one read instead of two walks down the subtree's edges.
     static_ranges: Vec<[u32; 2]>,
     dynamic: DynamicBvh,
-    /// An 8-wide tree over the dynamic tree's leaves, for rays. Refit by
+    /// A 16-wide tree over the dynamic tree's leaves, for rays. Refit by
     /// [`Self::maintain_dynamic`] after [`Self::update_dynamic`]s; dropped by
     /// [`Self::dynamic_mut`], the only other way to change the dynamic tree, so it never
     /// holds other leaves than the tree's.
@@ -209,14 +209,14 @@ impl StaticDynamicPair {
         }
     }
 
-    /// Builds an 8-wide tree over the dynamic tree's leaves that rays walk instead of the
+    /// Builds a 16-wide tree over the dynamic tree's leaves that rays walk instead of the
     /// binary tree, until the next [`Self::dynamic_mut`] (updates through
     /// [`Self::update_dynamic`] refit it instead). Returns whether a snapshot is held
     /// afterwards (none is made of an empty tree). It reads only the leaves' ids and tight
     /// boxes, so it does not wait for a refit of the inner boxes.
     ///
     /// Why: a binary tree is deep, and a ray through one visits several times as many nodes
-    /// as through an 8-wide one (on the picking bench, 52 binary nodes per ray at 10,000
+    /// as through a wide one (on the picking bench, 52 binary nodes per ray at 10,000
     /// entities, against about 10 wide ones). Rebuilding the wide form after every change
     /// would cost more than the rays save, so call this when the dynamic tree has stopped
     /// changing: it costs one build over the leaves, and then nothing until the tree changes.
@@ -427,7 +427,7 @@ fn wide_for_rays(static_tree: &Bvh) -> Bvh16 {
 
 /// Walks the dynamic tree's ray snapshot when there is one, else the binary tree.
 fn walk_dynamic<A, V>(
-    wide: Option<&Bvh8>,
+    wide: Option<&Bvh16>,
     dynamic: &DynamicBvh,
     ray: &mut Ray,
     announce: A,

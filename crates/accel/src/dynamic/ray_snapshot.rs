@@ -1,4 +1,4 @@
-//! The 8-wide tree that rays walk instead of the binary dynamic tree, built in place or on
+//! The 16-wide tree that rays walk instead of the binary dynamic tree, built in place or on
 //! another thread, refit along the paths of leaves that move, and dropped at the next
 //! insertion or removal.
 //!
@@ -14,9 +14,14 @@
 //! copy of the dynamic tree's shape (even refit to the tight boxes) visited 18.1 wide nodes
 //! and 3.67 candidates each, and ran 1.15-1.8x slower than through a PLOC build over the same
 //! boxes, which visited 13.4 and 3.33, as many as the static tree over the same entities.
+//!
+//! 16-wide, as the static tree's ray copy, since the walk's 16-wide node test runs 8 lanes at
+//! a time (`bvh/wide/ray.rs`): rays through the snapshot of 100,000 entities at rest took
+//! 0.88x the time of rays through an 8-wide one, and with 1% of them moving every frame the
+//! refits took no longer (1.13 against 1.24 ms a frame, one run each; BENCHMARKS.md).
 
 use super::DynamicBvh;
-use crate::bvh::wide::{Bvh8, RefitPaths};
+use crate::bvh::wide::{Bvh16, RefitPaths};
 use crate::{Aabb, BuildConfig, Bvh};
 use std::thread::JoinHandle;
 
@@ -36,7 +41,7 @@ struct Job {
 /// A snapshot and what refits it after motion.
 #[derive(Clone, Debug)]
 struct Held {
-    wide: Bvh8,
+    wide: Bvh16,
     /// The dynamic tree's arena index of the leaf at each position of the leaf order.
     leaf_at: Vec<u32>,
     /// Each arena index's position in the leaf order ([`NOT_A_LEAF`] for other nodes).
@@ -48,7 +53,7 @@ struct Held {
 
 impl Held {
     fn build(leaves: &LeafBoxes, config: &BuildConfig) -> Self {
-        let mut wide = Bvh8::from_bvh(&Bvh::build(&leaves.boxes, config));
+        let mut wide = Bvh16::from_bvh(&Bvh::build(&leaves.boxes, config));
         let leaf_at: Vec<u32> = wide
             .primitive_indices
             .iter()
@@ -151,7 +156,7 @@ impl LeafBoxes {
 impl RaySnapshot {
     /// The snapshot, when one is held and refit to every update.
     #[inline]
-    pub fn wide(&self) -> Option<&Bvh8> {
+    pub fn wide(&self) -> Option<&Bvh16> {
         self.held
             .as_ref()
             .filter(|_| self.moved.is_empty())
