@@ -61,7 +61,7 @@ fn main() {
     });
     println!("build, {n} triangles (M tris/s, including making the triangle boxes):");
     println!(
-        "  accel MeshBvh::new (8-wide, packets; PLOC at this size): {:.2}",
+        "  accel MeshBvh::new (16-wide, packets; PLOC at this size): {:.2}",
         rate(ours)
     );
     for (name, split) in [

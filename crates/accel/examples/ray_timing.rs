@@ -14,7 +14,7 @@
 //!
 //! `cargo run --release -p accel --example ray_timing [rounds] [only]`
 //!
-//! Contenders: `MeshBvh` (8-wide, leaf triangles in 4-wide packets) and obvhs CWBVH (medium
+//! Contenders: `MeshBvh` (16-wide, leaf triangles in 4-wide packets) and obvhs CWBVH (medium
 //! preset, its Möller-Trumbore test, triangles in leaf order) on every kind; on incoherent
 //! rays also the 8-wide, quantized 8-wide and 4-wide `WideBvh` over the triangle boxes with the
 //! single watertight test in the callback. `only` keeps the contenders whose name contains it.

@@ -1,6 +1,6 @@
 //! Triangle meshes (the bottom level) and scenes of mesh instances (the top level).
 //!
-//! - [`MeshBvh`]: an 8-wide BVH over one mesh's indexed triangles, with the watertight test.
+//! - [`MeshBvh`]: a 16-wide BVH over one mesh's indexed triangles, with the watertight test.
 //! - [`MeshHit`]: where a ray met a mesh, with interpolation of vertex attributes.
 //! - [`InstancedScene`]: instances of shared meshes under transforms, under a top-level BVH.
 
