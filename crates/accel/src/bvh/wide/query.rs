@@ -99,9 +99,10 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
     {
         // Announcing walks are those of trees over costly primitives (the plugin's entities),
         // and such trees are large and traced one ray at a time. Their loop runs a second
-        // time compiled with AVX2 where the CPU has it: the same SSE arithmetic, in the VEX
-        // encoding, whose three-operand forms drop the register copies of the node test
-        // (1.5-2% a ray at 10^5 entities, paired; 8-lane node tests ran 5% slower than that).
+        // time compiled with AVX2 where the CPU has it: the VEX encoding's three-operand forms
+        // drop the register copies of the node test (1.5-2% a ray at 10^5 entities, paired),
+        // and 16-wide nodes are tested 8 lanes at a time (`SlotRayTest::intersect_slots_wide`;
+        // about 4% more, with `_mm256` intrinsics it had been 5-9% less).
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
