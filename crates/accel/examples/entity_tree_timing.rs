@@ -1,8 +1,8 @@
 //! Prints what a rebuild of the plugin's static entity tree costs: the build under each
 //! split strategy with the plugin's stopping rules and SAH costs (with the tree's SAH cost),
-//! then the collapse of the PLOC tree to the wide layouts, the step that follows every
-//! static-tree build (the 16-wide ray copy, ids inlined) and every ray copy of the dynamic
-//! tree (8-wide). Random boxes, best of 5.
+//! then the collapse of the PLOC tree to the wide layouts (the 16-wide one with ids inlined is
+//! the step that follows every static-tree build and every ray snapshot of the dynamic tree;
+//! `Bvh8` and `QBvh8` for comparison). Random boxes, best of 5.
 //! `cargo run --release -p accel --example entity_tree_timing -- 1000000`.
 
 use accel::bvh::wide::{Bvh8, Bvh16, QBvh8};

@@ -105,17 +105,31 @@ fn check_float_wide<const N: usize>(
 }
 
 /// The announcing walk (the picking casts', which runs a copy compiled with AVX2 where the
-/// CPU has it) finds the closest hit, and announces every primitive it visits with others
-/// of the same node before any of them is visited.
+/// CPU has it) finds the closest hit, announces only primitives of the tree, each at most
+/// once, and a primitive it both announces and visits before the visit.
 fn check_announcing_walk<const N: usize>(tree: &WideBvh<N>, boxes: &[Aabb], seed: u64, n: usize) {
     for ray in rays(n, seed, 120.0) {
-        let announced = core::cell::RefCell::new(Vec::new());
+        // (announced, primitive), in the order the walk did them.
+        let events = core::cell::RefCell::new(Vec::new());
         let hit = accel::query::ray_walk::closest_hit_announcing(
             tree,
             &ray,
-            |p| announced.borrow_mut().push(p),
-            |p, r| r.intersect_aabb(&boxes[p as usize]),
+            |p| events.borrow_mut().push((true, p)),
+            |p, r| {
+                events.borrow_mut().push((false, p));
+                r.intersect_aabb(&boxes[p as usize])
+            },
         );
+        let events = events.into_inner();
+        for (i, &(announced, p)) in events.iter().enumerate() {
+            assert!((p as usize) < boxes.len(), "{N}-wide: primitive {p}");
+            let first_announcement = events.iter().position(|&e| e == (true, p));
+            if announced {
+                assert_eq!(first_announcement, Some(i), "{N}-wide: {p} announced twice");
+            } else if let Some(j) = first_announcement {
+                assert!(j < i, "{N}-wide: {p} announced after its visit");
+            }
+        }
         assert_eq!(
             hit.map(|h| h.t),
             closest_brute(boxes, &ray),

@@ -416,9 +416,10 @@ impl RayWalk for StaticDynamicPair {
 
 /// The static tree as rays walk it: 16-wide, ids inlined. Why 16: a ray through a large
 /// static world waits on each level's node in turn, and the 16-wide tree has a quarter fewer
-/// levels than the 8-wide one (rays at 10^5 entities ran 3-5% faster, paired; level at 10^4,
-/// where the nodes are cached: BENCHMARKS.md). The collapse costs about a third more than
-/// the 8-wide one (176 against 134 ms after a build over 10^6 entities).
+/// levels than the 8-wide one (rays at 10^5 entities ran 3-5% faster, paired, before its node
+/// test ran 8 lanes at a time, which took about 4% more off: BENCHMARKS.md). The collapse
+/// costs about a third more than the 8-wide one (176 against 134 ms after a build over 10^6
+/// entities).
 fn wide_for_rays(static_tree: &Bvh) -> Bvh16 {
     let mut wide = Bvh16::from_bvh(static_tree);
     wide.inline_single_leaves();

@@ -93,8 +93,8 @@ pub struct MeshBvh {
 /// The wide layout the mesh tree uses.
 ///
 /// 16-wide rather than 8: the 16-wide node test runs 8 lanes at a time where the walk is
-/// compiled with AVX2 (`bvh/wide/ray.rs`), and on the 1M-triangle scene diffuse and
-/// incoherent rays ran 5-8% faster against obvhs CWBVH (`ray_timing`), primary and shadow
+/// compiled with AVX2 (`bvh/wide/ray.rs`), and on the 1M-triangle scene diffuse rays ran
+/// 3-7% and incoherent rays 7-9% faster against obvhs CWBVH (`ray_timing`), primary and shadow
 /// rays level, for a build about 8% slower and a refit within 5% (`mesh_timing`).
 pub type MeshTree = Bvh16;
 

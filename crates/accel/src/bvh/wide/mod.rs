@@ -56,10 +56,10 @@ pub type Bvh4 = WideBvh<4>;
 /// The 8-wide layout (one AVX register, or two SSE registers, per coordinate).
 pub type Bvh8 = WideBvh<8>;
 /// The 16-wide layout (512-byte nodes): a tree a quarter shallower than the 8-wide one, for
-/// single rays through large trees whose nodes come from memory one level at a time (the
-/// static entity tree's ray copy: rays at 10^5 entities ran 3-5% faster than on `Bvh8`,
-/// BENCHMARKS.md). Where the nodes are cached (10^4 entities) it measured level with
-/// `Bvh8`: the twice longer node test eats what the levels save.
+/// single rays through large trees whose nodes come from memory one level at a time. Where
+/// the CPU has AVX2 its node test runs 8 lanes at a time. The entity trees' ray copies and the
+/// mesh BVHs use it: rays at 10^5 entities ran 3-5% faster than on `Bvh8` with the 4-lane test
+/// alone, and diffuse and incoherent mesh rays 3-9% faster with the 8-lane one (BENCHMARKS.md).
 pub type Bvh16 = WideBvh<16>;
 /// The 8-wide layout with quantized child boxes: 128-byte nodes (two cache lines) instead of
 /// 256, for trees traced by many incoherent rays (mesh BVHs), where node fetches from memory

@@ -86,7 +86,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         #[cfg(target_arch = "x86_64")]
         if N >= 16 && std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            unsafe { walk_ray_avx2(self, ray, visit) };
+            unsafe { visit_ray_avx2::<N, false, L, _, _>(self, ray, |_| {}, visit) };
             return;
         }
         visit_ray::<N, false, false, L, _, _>(self, ray, |_| {}, visit)
@@ -97,30 +97,32 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         A: FnMut(u32),
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        // Announcing walks are those of trees over costly primitives (the plugin's entities),
-        // and such trees are large and traced one ray at a time. Their loop runs a second
-        // time compiled with AVX2 where the CPU has it: the VEX encoding's three-operand forms
-        // drop the register copies of the node test (1.5-2% a ray at 10^5 entities, paired),
-        // and 16-wide nodes are tested 8 lanes at a time (`SlotRayTest::intersect_slots_wide`;
-        // about 4% more, with `_mm256` intrinsics it had been 5-9% less).
+        // Announcing walks are those of closest-hit queries (`closest_hit` announces to a hook
+        // that does nothing), the picking casts' over entity trees among them. Their loop runs
+        // a second time compiled with AVX2 where the CPU has it: the VEX encoding's
+        // three-operand forms drop the register copies of the node test (1.5-2% a ray at 10^5
+        // entities, paired), and 16-wide nodes are tested 8 lanes at a time
+        // (`SlotRayTest::intersect_slots_wide`; about 4% more, where `_mm256` intrinsics had
+        // cost 5-9%).
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            unsafe { visit_ray_avx2(self, ray, announce, visit) };
+            unsafe { visit_ray_avx2::<N, true, L, _, _>(self, ray, announce, visit) };
             return;
         }
         visit_ray::<N, true, false, L, _, _>(self, ray, announce, visit)
     }
 }
 
-/// The announcing walk compiled with AVX2 (see `walk_ray_announcing`). Its results are
-/// bit-identical: the same IEEE operations, with no fused multiply-add.
+/// The walk compiled with AVX2, for announcing walks and for plain walks of 16-wide trees
+/// (see `walk_ray_announcing` and `walk_ray`). Its results are bit-identical: the same IEEE
+/// operations, with no fused multiply-add.
 ///
 /// # Safety
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn visit_ray_avx2<const N: usize, L, A, V>(
+unsafe fn visit_ray_avx2<const N: usize, const COSTLY_LEAVES: bool, L, A, V>(
     tree: &WideBvh<N, L>,
     ray: &mut Ray,
     announce: A,
@@ -130,22 +132,7 @@ unsafe fn visit_ray_avx2<const N: usize, L, A, V>(
     A: FnMut(u32),
     V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
-    visit_ray::<N, true, true, L, _, _>(tree, ray, announce, visit)
-}
-
-/// The plain walk compiled with AVX2 (see `walk_ray`); bit-identical results, as the
-/// announcing walk's copy.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn walk_ray_avx2<const N: usize, L, V>(tree: &WideBvh<N, L>, ray: &mut Ray, visit: V)
-where
-    L: WideLayout<N>,
-    V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
-{
-    visit_ray::<N, false, true, L, _, _>(tree, ray, |_| {}, visit)
+    visit_ray::<N, COSTLY_LEAVES, true, L, _, _>(tree, ray, announce, visit)
 }
 
 impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
