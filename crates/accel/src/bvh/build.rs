@@ -55,6 +55,13 @@ impl BuildPrim {
         centroid(&self.bounds())
     }
 
+    /// `lo + hi` on one axis: lane `axis` of `bounds().min + bounds().max`, the same float
+    /// without the other two lanes.
+    #[inline(always)]
+    pub(super) fn corner_sum(&self, axis: usize) -> f32 {
+        self.lo.to_array()[axis] + self.hi.to_array()[axis]
+    }
+
     /// The primitive's id.
     #[inline(always)]
     pub(super) fn index(&self) -> u32 {

@@ -1,29 +1,28 @@
-//! Partitioning a build's primitives around a split plane, returning each side's centroid
-//! bounds on the way: a block partition, with Hoare's scheme for the tail.
+//! Partitioning a build's primitives around a split plane: a block partition, with a
+//! branch-free Lomuto pass for the tail.
 
 use super::build::BuildPrim;
-use crate::Aabb;
-use glam::Vec3A;
 
-/// Elements classified at a time by each end of [`partition_by_centroid`] (offsets fit a
-/// byte).
+/// Elements classified at a time by each end of [`partition`] (offsets fit a byte).
 const PARTITION_BLOCK: usize = 64;
 
-/// Partitions in place so that the primitives whose point (`point`: the centroid, or a
-/// multiple) passes `left` come first; returns how many did, and the bounds of the points on
-/// each side: a partition reads every primitive anyway, so the children's centroid bounds
-/// cost no pass of their own.
+/// Partitions in place so that the primitives that pass `goes_left` come first; returns how
+/// many did. `goes_left` may be called more than once on a primitive.
 ///
 /// Block partitioning (Edelkamp & Weiss 2016, "BlockQuicksort"): each end classifies a block
 /// of elements without branching, recording the offsets of the misplaced ones, then the two
 /// lists are swapped pairwise. Why: Hoare's loop branches on every element's side, and deep in
 /// a build, where boxes are scattered, that branch is a coin toss.
-pub(super) fn partition_by_centroid(
+///
+/// What is left when fewer than two blocks remain (every node of fewer than 128 primitives,
+/// most of a tree's nodes) goes through Lomuto's scheme without a branch: every element is
+/// swapped with the next left slot, and the slot advances when the element belongs left. Why:
+/// this tail was Hoare's loop until 2026-11-24, and its mispredicted branches cost a fifth of
+/// a binned SAH build (1M triangles 1.25x and 100k boxes 1.3x faster without it).
+pub(super) fn partition(
     prims: &mut [BuildPrim],
-    point: impl Fn(&BuildPrim) -> Vec3A,
-    left: impl Fn(Vec3A) -> bool,
-) -> (usize, [Aabb; 2]) {
-    let mut sides = SideBounds::default();
+    mut goes_left: impl FnMut(&BuildPrim) -> bool,
+) -> usize {
     let (mut l, mut r) = (0usize, prims.len());
     let mut misplaced_l = [0u8; PARTITION_BLOCK];
     let mut misplaced_r = [0u8; PARTITION_BLOCK];
@@ -33,21 +32,15 @@ pub(super) fn partition_by_centroid(
         if count_l == 0 {
             start_l = 0;
             for (i, p) in prims[l..l + PARTITION_BLOCK].iter().enumerate() {
-                let c = point(p);
-                let goes_left = left(c);
-                sides.add(c, goes_left);
                 misplaced_l[count_l] = i as u8;
-                count_l += usize::from(!goes_left);
+                count_l += usize::from(!goes_left(p));
             }
         }
         if count_r == 0 {
             start_r = 0;
             for (i, p) in prims[r - PARTITION_BLOCK..r].iter().rev().enumerate() {
-                let c = point(p);
-                let goes_left = left(c);
-                sides.add(c, goes_left);
                 misplaced_r[count_r] = i as u8;
-                count_r += usize::from(goes_left);
+                count_r += usize::from(goes_left(p));
             }
         }
         let swaps = count_l.min(count_r);
@@ -65,109 +58,27 @@ pub(super) fn partition_by_centroid(
             r -= PARTITION_BLOCK;
         }
     }
-    // The rest, including a block whose misplaced elements are still waiting, by Hoare's
-    // loop. It classifies some elements a second time; adding a point to its side's bounds
-    // twice changes nothing.
-    let (mid, rest) = partition_scalar(&mut prims[l..r], &point, &left);
-    let [left_bounds, right_bounds] = sides.bounds();
-    (
-        l + mid,
-        [left_bounds.union(&rest[0]), right_bounds.union(&rest[1])],
-    )
-}
-
-/// The bounds of the points sent to each side, kept without branching on the side.
-struct SideBounds {
-    left_min: Vec3A,
-    left_max: Vec3A,
-    right_min: Vec3A,
-    right_max: Vec3A,
-}
-
-impl Default for SideBounds {
-    fn default() -> Self {
-        Self {
-            left_min: Vec3A::INFINITY,
-            left_max: Vec3A::NEG_INFINITY,
-            right_min: Vec3A::INFINITY,
-            right_max: Vec3A::NEG_INFINITY,
-        }
+    // The rest, including a block whose misplaced elements are still waiting (they are
+    // classified again).
+    let rest = &mut prims[l..r];
+    let mut next_left = 0;
+    for i in 0..rest.len() {
+        let left = goes_left(&rest[i]);
+        rest.swap(i, next_left);
+        next_left += usize::from(left);
     }
-}
-
-impl SideBounds {
-    #[inline(always)]
-    fn add(&mut self, c: Vec3A, goes_left: bool) {
-        let to_left = glam::BVec3A::splat(goes_left);
-        let inf = Vec3A::INFINITY;
-        self.left_min = self.left_min.min(Vec3A::select(to_left, c, inf));
-        self.left_max = self.left_max.max(Vec3A::select(to_left, c, -inf));
-        self.right_min = self.right_min.min(Vec3A::select(to_left, inf, c));
-        self.right_max = self.right_max.max(Vec3A::select(to_left, -inf, c));
-    }
-
-    fn bounds(&self) -> [Aabb; 2] {
-        [
-            Aabb {
-                min: self.left_min,
-                max: self.left_max,
-            },
-            Aabb {
-                min: self.right_min,
-                max: self.right_max,
-            },
-        ]
-    }
-}
-
-/// Hoare's partition with the bounds of each side's points: the tail of
-/// [`partition_by_centroid`]. Both ends scan inwards and only misplaced pairs are swapped,
-/// each primitive tested once.
-fn partition_scalar(
-    prims: &mut [BuildPrim],
-    point: impl Fn(&BuildPrim) -> Vec3A,
-    left: impl Fn(Vec3A) -> bool,
-) -> (usize, [Aabb; 2]) {
-    let mut bounds = [Aabb::EMPTY; 2];
-    let mut i = 0;
-    let mut j = prims.len();
-    loop {
-        while i < j {
-            let c = point(&prims[i]);
-            if !left(c) {
-                break;
-            }
-            bounds[0] = bounds[0].grow(c);
-            i += 1;
-        }
-        while i < j {
-            let c = point(&prims[j - 1]);
-            if left(c) {
-                break;
-            }
-            bounds[1] = bounds[1].grow(c);
-            j -= 1;
-        }
-        if i + 1 >= j {
-            return (i, bounds);
-        }
-        // `prims[i]` belongs right and `prims[j - 1]` left: swapped, each joins its side.
-        bounds[0] = bounds[0].grow(point(&prims[j - 1]));
-        bounds[1] = bounds[1].grow(point(&prims[i]));
-        prims.swap(i, j - 1);
-        i += 1;
-        j -= 1;
-    }
+    l + next_left
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Aabb;
+    use glam::Vec3A;
 
     /// The block partition against a plain filter: every primitive on its side, none lost or
-    /// repeated, and each side's centroid bounds those of its primitives, at sizes around the
-    /// block length (where the block loop hands over to the scalar tail) and with skewed
-    /// sides.
+    /// repeated, at sizes around the block length (where the block loop hands over to the
+    /// Lomuto tail) and with skewed sides.
     #[test]
     fn block_partition_matches_a_filter() {
         let mut next = crate::test_floats(0x9e37_79b9_7f4a_7c15);
@@ -193,10 +104,9 @@ mod tests {
                         BuildPrim::new(Aabb::new(c, c + 0.01), i as u32)
                     })
                     .collect();
-                let goes_left = |c: Vec3A| c.x < threshold;
-                let expected_left = prims.iter().filter(|p| goes_left(p.centroid())).count();
-                let (mid, bounds) =
-                    partition_by_centroid(&mut prims, BuildPrim::centroid, goes_left);
+                let goes_left = |p: &BuildPrim| p.centroid().x < threshold;
+                let expected_left = prims.iter().filter(|p| goes_left(p)).count();
+                let mid = partition(&mut prims, goes_left);
                 assert_eq!(mid, expected_left, "n {n}, threshold {threshold}");
                 let mut ids: Vec<u32> = prims.iter().map(BuildPrim::index).collect();
                 ids.sort_unstable();
@@ -204,14 +114,10 @@ mod tests {
                     ids.iter().copied().eq(0..n as u32),
                     "n {n}: ids lost or repeated"
                 );
-                for (side, range) in [(0, 0..mid), (1, mid..n)] {
-                    let mut want = Aabb::EMPTY;
+                for (side, range) in [(true, 0..mid), (false, mid..n)] {
                     for p in &prims[range] {
-                        assert_eq!(goes_left(p.centroid()), side == 0, "n {n}");
-                        want = want.grow(p.centroid());
+                        assert_eq!(goes_left(p), side, "n {n}");
                     }
-                    assert_eq!(bounds[side].min, want.min, "n {n}, side {side}");
-                    assert_eq!(bounds[side].max, want.max, "n {n}, side {side}");
                 }
             }
         }

@@ -2,9 +2,9 @@
 
 use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid};
 use super::config::BuildConfig;
-use super::partition::partition_by_centroid;
+use super::partition::partition;
 use crate::Aabb;
-use glam::Vec3A;
+use glam::{BVec3A, Vec3A};
 
 /// The most bins a build may ask for (the bin arrays live on the stack).
 pub const MAX_BINS: usize = 64;
@@ -37,6 +37,30 @@ pub(super) fn split(
     let sums_finite =
         node_bounds.min.abs().cmple(half_max).all() && node_bounds.max.abs().cmple(half_max).all();
     let args = (prims, node_bounds, centroid_bounds, bins, config, may_stop);
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { split_avx2(args, sums_finite) };
+    }
+    split_sized(args, sums_finite)
+}
+
+/// [`split_sized`] compiled with AVX2: the VEX encoding's three-operand forms spare the
+/// register copies of the binning loop (2-4% off a build, alternated). The results are the
+/// same bits: the same IEEE operations, with no fused multiply-add.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn split_avx2(args: SplitArgs<'_>, sums_finite: bool) -> SplitOutcome {
+    split_sized(args, sums_finite)
+}
+
+/// The split with bin arrays sized to the node's bin count.
+#[inline(always)]
+fn split_sized(args: SplitArgs<'_>, sums_finite: bool) -> SplitOutcome {
+    let bins = args.3;
     match (bins, sums_finite) {
         (0..=4, true) => split_with::<4, true>(args),
         (5..=8, true) => split_with::<8, true>(args),
@@ -76,6 +100,16 @@ impl<const SUMS: bool> BinMap<SUMS> {
         if SUMS { b.min + b.max } else { centroid(&b) }
     }
 
+    /// Lane `axis` of [`Self::point`], computed on that lane alone.
+    #[inline(always)]
+    fn point_on(p: &BuildPrim, axis: usize) -> f32 {
+        if SUMS {
+            p.corner_sum(axis)
+        } else {
+            p.centroid().to_array()[axis]
+        }
+    }
+
     /// The bin coordinates of a point from [`Self::point`], clamped to the bins.
     #[inline(always)]
     fn coordinates(&self, point: Vec3A) -> Vec3A {
@@ -85,6 +119,7 @@ impl<const SUMS: bool> BinMap<SUMS> {
     }
 }
 
+#[inline(always)]
 fn split_with<const B: usize, const SUMS: bool>(
     (prims, node_bounds, centroid_bounds, bins, config, may_stop): SplitArgs<'_>,
 ) -> SplitOutcome {
@@ -144,13 +179,16 @@ fn split_with<const B: usize, const SUMS: bool>(
         for i in 0..bins - 1 {
             acc = acc.union(&bin_bounds[axis][i]);
             n += bin_count[axis][i];
-            if n == 0 {
-                continue;
-            }
-            let cost = acc.half_area() * n as f32 + right_cost[i + 1];
-            if cost < best.0 {
-                best = (cost, axis, i);
-            }
+            // Selects, not branches: in the small nodes that most of a build's nodes are,
+            // whether a plane is the best so far is a coin toss.
+            let cost = match n {
+                0 => f32::INFINITY,
+                _ => acc.half_area() * n as f32 + right_cost[i + 1],
+            };
+            let better = cost < best.0;
+            best.0 = if better { cost } else { best.0 };
+            best.1 = if better { axis } else { best.1 };
+            best.2 = if better { i } else { best.2 };
         }
     }
     let (cost, axis, plane) = best;
@@ -170,34 +208,70 @@ fn split_with<const B: usize, const SUMS: bool>(
     // `v < plane + 1`. Comparing floats skips a saturating float-to-integer conversion per
     // primitive, a few branches each.
     let (o, sc, limit) = (map.origin[axis], map.scale[axis], (plane + 1) as f32);
-    let (mid, points) = partition_by_centroid(prims, BinMap::<SUMS>::point, |point| {
-        (point.to_array()[axis] - o) * sc < limit
+    let mid = partition(prims, |p| {
+        (BinMap::<SUMS>::point_on(p, axis) - o) * sc < limit
     });
     debug_assert!(mid > 0 && mid < prims.len());
-    let centroids = points.map(|b| match SUMS {
-        true => Aabb {
-            min: b.min * 0.5,
-            max: b.max * 0.5,
-        },
-        false => b,
-    });
     // The children's boxes are the unions of the bins on each side of the plane: exactly
     // what a pass over each child would find (a union does not depend on order).
     let side = |bins: &[Aabb]| bins.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
     let (left, right) = bin_bounds[axis][..bins].split_at(plane + 1);
+    let boxes = [side(left), side(right)];
+    // The points' coordinate on `axis` at the plane, widened by a few ulps of the terms that
+    // computed it so that no point classified to a side lies beyond its side's bound (one
+    // that did would only be clamped into an end bin of the next level).
+    let at_plane = o + limit / sc;
+    let margin = (at_plane.abs() + o.abs()) * (4.0 * f32::EPSILON);
+    let to_centroid = if SUMS { 0.5 } else { 1.0 };
+    // `f32::min` and `max` return the other operand for NaN: a plane that overflowed bounds
+    // nothing.
+    let planes = [
+        ((at_plane + margin) * to_centroid).min(f32::INFINITY),
+        ((at_plane - margin) * to_centroid).max(f32::NEG_INFINITY),
+    ];
     SplitOutcome::SplitWithBounds(
         mid,
-        [
-            NodeBounds {
-                node: side(left),
-                centroids: centroids[0],
-            },
-            NodeBounds {
-                node: side(right),
-                centroids: centroids[1],
-            },
-        ],
+        [0, 1].map(|s| NodeBounds {
+            node: boxes[s],
+            centroids: child_centroid_bounds(centroid_bounds, &boxes[s], axis, s == 0, planes[s]),
+        }),
     )
+}
+
+/// Bounds on a child's centroids, found without a pass over them: its centroids lie in its
+/// box, in the parent's centroid bounds, and on its side of the split plane (`plane`, already
+/// widened outwards, infinite for no bound).
+///
+/// Why not the exact bounds: the partition tracked them, four vector selects and four min/max
+/// per primitive and level. These bounds are never tighter, so the next level's bins are a
+/// little wider: SAH cost within 0.25% either way on the benchmark scenes, for 6% off a build.
+/// They are conservative, so coincident centroids still find no plane that separates them
+/// (their bins cannot), and the split by count still applies.
+#[inline(always)]
+fn child_centroid_bounds(
+    parent: &Aabb,
+    child_box: &Aabb,
+    axis: usize,
+    left: bool,
+    plane: f32,
+) -> Aabb {
+    let on_axis = BVec3A::new(axis == 0, axis == 1, axis == 2);
+    let (min, max) = (parent.min.max(child_box.min), parent.max.min(child_box.max));
+    if left {
+        Aabb {
+            min,
+            max: max.min(Vec3A::select(on_axis, Vec3A::splat(plane), Vec3A::INFINITY)),
+        }
+    } else {
+        Aabb {
+            min: min.max(Vec3A::select(
+                on_axis,
+                Vec3A::splat(plane),
+                Vec3A::NEG_INFINITY,
+            )),
+            max,
+        }
+    }
 }
 
 /// The bins of a centroid on the three axes, from its bin coordinates (already clamped to
@@ -221,5 +295,62 @@ fn bin_indices(coordinates: Vec3A) -> [u32; 3] {
     #[cfg(not(target_arch = "x86_64"))]
     {
         coordinates.as_uvec3().to_array()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The children's centroid bounds, found without a pass, contain every child centroid:
+    /// at every node of builds over uniform, clustered, far-from-origin and huge-coordinate
+    /// boxes (the last past half the largest float, where the binning uses clamped centroids).
+    /// It fails when a side is clipped by the other side's plane.
+    #[test]
+    fn child_centroid_bounds_contain_the_centroids() {
+        let mut next = crate::test_floats(0x2545_f491_4f6c_dd1d);
+        let config = BuildConfig::default();
+        let scenes: [(f32, f32, f32); 4] = [
+            (0.0, 100.0, 1.0),
+            (0.0, 1.0, 0.001),
+            (1.0e7, 10.0, 0.5),
+            (0.0, 3.0e38, 1.0e37),
+        ];
+        for (offset, spread, size) in scenes {
+            for n in [2usize, 3, 9, 17, 200, 3000] {
+                let mut prims: Vec<BuildPrim> = (0..n)
+                    .map(|i| {
+                        // Half the points in a tight cluster, so some nodes are narrow.
+                        let s = if i % 2 == 0 { spread } else { spread * 1e-3 };
+                        let c = Vec3A::new(next(), next(), next()) * s - s * 0.5 + offset;
+                        let h = Vec3A::new(next(), next(), next()) * size;
+                        BuildPrim::new(Aabb::new(c - h, c + h), i as u32)
+                    })
+                    .collect();
+                let mut work = vec![(0, n, NodeBounds::of(&prims))];
+                while let Some((start, end, bounds)) = work.pop() {
+                    let node = &mut prims[start..end];
+                    let outcome = split(node, &bounds.node, &bounds.centroids, 16, &config, true);
+                    let SplitOutcome::SplitWithBounds(mid, children) = outcome else {
+                        continue;
+                    };
+                    for (range, child) in [
+                        (start..start + mid, &children[0]),
+                        (start + mid..end, &children[1]),
+                    ] {
+                        for p in &prims[range.clone()] {
+                            let c = p.centroid();
+                            assert!(
+                                c.cmpge(child.centroids.min).all()
+                                    && c.cmple(child.centroids.max).all(),
+                                "offset {offset}, n {n}: centroid {c} outside {:?}",
+                                child.centroids
+                            );
+                        }
+                        work.push((range.start, range.end, *child));
+                    }
+                }
+            }
+        }
     }
 }

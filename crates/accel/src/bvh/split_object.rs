@@ -1,7 +1,7 @@
 //! Splits that look only at centroid positions: spatial midpoint and object median.
 
 use super::build::{BuildPrim, SplitOutcome};
-use super::partition::partition_by_centroid;
+use super::partition::partition;
 use crate::Aabb;
 
 /// Midpoint of the centroid bounds on their longest axis; the object median when rounding
@@ -9,7 +9,7 @@ use crate::Aabb;
 pub(super) fn midpoint(prims: &mut [BuildPrim], centroid_bounds: &Aabb) -> SplitOutcome {
     let axis = centroid_bounds.longest_axis();
     let plane = centroid_bounds.center()[axis];
-    let (mid, _) = partition_by_centroid(prims, BuildPrim::centroid, |c| c[axis] < plane);
+    let mid = partition(prims, |p| p.centroid()[axis] < plane);
     if mid == 0 || mid == prims.len() {
         return median(prims, centroid_bounds);
     }
