@@ -256,22 +256,19 @@ fn child_centroid_bounds(
     plane: f32,
 ) -> Aabb {
     let on_axis = BVec3A::new(axis == 0, axis == 1, axis == 2);
-    let (min, max) = (parent.min.max(child_box.min), parent.max.min(child_box.max));
-    if left {
-        Aabb {
-            min,
-            max: max.min(Vec3A::select(on_axis, Vec3A::splat(plane), Vec3A::INFINITY)),
-        }
+    let plane = Vec3A::splat(plane);
+    let side = if left {
+        Aabb::new(
+            Vec3A::NEG_INFINITY,
+            Vec3A::select(on_axis, plane, Vec3A::INFINITY),
+        )
     } else {
-        Aabb {
-            min: min.max(Vec3A::select(
-                on_axis,
-                Vec3A::splat(plane),
-                Vec3A::NEG_INFINITY,
-            )),
-            max,
-        }
-    }
+        Aabb::new(
+            Vec3A::select(on_axis, plane, Vec3A::NEG_INFINITY),
+            Vec3A::INFINITY,
+        )
+    };
+    parent.intersection(child_box).intersection(&side)
 }
 
 /// The bins of a centroid on the three axes, from its bin coordinates (already clamped to
