@@ -28,6 +28,7 @@ mod ploc_tree;
 mod reinsert;
 mod sphere_tree;
 mod split_binned;
+mod split_exhaustive;
 mod split_object;
 mod split_sweep;
 pub mod stats;

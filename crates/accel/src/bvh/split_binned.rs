@@ -3,6 +3,7 @@
 use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid};
 use super::config::BuildConfig;
 use super::partition::partition;
+use super::split_exhaustive;
 use crate::Aabb;
 use glam::{BVec3A, Vec3A};
 
@@ -26,6 +27,10 @@ pub(super) fn split(
     // in a million-triangle build.
     if may_stop && config.sah.intersection * prims.len() as f32 <= config.sah.traversal {
         return SplitOutcome::Leaf;
+    }
+    // Tiny nodes: every partition costs less to try than the bins (see `split_exhaustive`).
+    if prims.len() <= split_exhaustive::MAX_PRIMS {
+        return split_exhaustive::split(prims, node_bounds, config, may_stop);
     }
     // Only as many bins as there are primitives can be non-empty. Most nodes of a tree are
     // small, and clearing 3 x 64 bin boxes for each would cost more than binning its
