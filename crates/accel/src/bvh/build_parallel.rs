@@ -46,6 +46,9 @@ fn build_parallel(
     let Some((mid, [left_bounds, right_bounds])) = split_node(prims, &bounds, depth, config) else {
         root.first = prim_offset as u32;
         root.count = prims.len() as u32;
+        if !bounds.tight {
+            root.set_aabb(&NodeBounds::of(prims).node);
+        }
         return vec![root];
     };
     let (left, right) = prims.split_at_mut(mid);
@@ -66,6 +69,9 @@ fn build_parallel(
     };
     root.first = 1;
     root.count = 0;
+    if !bounds.tight {
+        root.set_aabb(&l[0].aabb().union(&r[0].aabb()));
+    }
     let mut nodes = Vec::with_capacity(1 + l.len() + r.len());
     nodes.push(root);
     nodes.push(fix(l[0], &remap_left));

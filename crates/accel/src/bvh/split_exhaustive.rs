@@ -86,6 +86,7 @@ fn split_n<const N: usize, const S: usize>(
         mid,
         [left, all ^ left].map(|side| NodeBounds {
             node: unions[side],
+            tight: true,
             centroids: (0..N)
                 .filter(|i| side >> i & 1 == 1)
                 .fold(Aabb::EMPTY, |acc, i| acc.grow(original[i].centroid())),
