@@ -244,6 +244,35 @@ pub(super) fn build_subtree_within(
     nodes
 }
 
+/// SAH termination: whether a leaf of `count` primitives costs no more than the split whose
+/// `area(L) n(L) + area(R) n(R)` is `split_area_cost`, in a node with box `node`.
+pub(super) fn leaf_is_cheaper(
+    config: &BuildConfig,
+    count: usize,
+    split_area_cost: f32,
+    node: &Aabb,
+) -> bool {
+    let split_cost = config.sah.traversal
+        + config.sah.intersection * split_area_cost / node.half_area().max(f32::MIN_POSITIVE);
+    config.sah.intersection * count as f32 <= split_cost
+}
+
+/// The box of node `i` from what it holds: its two children's boxes, or for a leaf
+/// `leaf_box(first, count)`.
+pub(super) fn fitted_box(
+    nodes: &[BvhNode],
+    i: usize,
+    leaf_box: impl FnOnce(usize, usize) -> Aabb,
+) -> Aabb {
+    let node = nodes[i];
+    let first = node.first as usize;
+    if node.is_leaf() {
+        leaf_box(first, node.count as usize)
+    } else {
+        nodes[first].aabb().union(&nodes[first + 1].aabb())
+    }
+}
+
 /// Gives the nodes in `loose` (in the order they were created) their tight boxes, children
 /// first: the reverse of creation order meets every child before its parent.
 pub(super) fn tighten(
@@ -253,16 +282,12 @@ pub(super) fn tighten(
     prim_offset: usize,
 ) {
     for &i in loose.iter().rev() {
-        let node = nodes[i];
-        let b = if node.is_leaf() {
-            let first = node.first as usize - prim_offset;
-            prims[first..first + node.count as usize]
+        let b = fitted_box(nodes, i, |first, count| {
+            let first = first - prim_offset;
+            prims[first..first + count]
                 .iter()
                 .fold(Aabb::EMPTY, |acc, p| acc.union(&p.bounds()))
-        } else {
-            let l = node.first as usize;
-            nodes[l].aabb().union(&nodes[l + 1].aabb())
-        };
+        });
         nodes[i].set_aabb(&b);
     }
 }

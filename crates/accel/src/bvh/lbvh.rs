@@ -10,6 +10,7 @@
 //! than the last percent of query speed (a level's static tree after an edit, a dynamic tree's
 //! periodic rebuild).
 
+use super::build::fitted_box;
 use super::morton::sorted_keys;
 use super::{BuildConfig, BvhNode};
 use crate::Aabb;
@@ -78,16 +79,11 @@ fn split_point(keys: &[u64], index_bits: u32) -> usize {
 /// both children of a node before the node.
 fn with_boxes(mut nodes: Vec<BvhNode>, order: &[u32], bounds: &[Aabb]) -> Vec<BvhNode> {
     for i in (0..nodes.len()).rev() {
-        let node = nodes[i];
-        let b = if node.is_leaf() {
-            let first = node.first as usize;
-            order[first..first + node.count as usize]
+        let b = fitted_box(&nodes, i, |first, count| {
+            order[first..first + count]
                 .iter()
                 .fold(Aabb::EMPTY, |acc, &p| acc.union(&bounds[p as usize]))
-        } else {
-            let l = node.first as usize;
-            nodes[l].aabb().union(&nodes[l + 1].aabb())
-        };
+        });
         nodes[i].set_aabb(&b);
     }
     nodes

@@ -1,6 +1,6 @@
 //! Binned SAH (Wald 2007): the best of `bins - 1` candidate planes per axis, in two passes.
 
-use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid};
+use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid, leaf_is_cheaper};
 use super::config::BuildConfig;
 use super::partition::partition;
 use super::split_exhaustive;
@@ -249,13 +249,8 @@ fn split_with<const B: usize, const SUMS: bool>(
     }
     // A sample's counts, scaled to the node's.
     let cost = cost * (n as f32 / binned as f32);
-    if may_stop {
-        let split_cost = config.sah.traversal
-            + config.sah.intersection * cost / node_bounds.half_area().max(f32::MIN_POSITIVE);
-        let leaf_cost = config.sah.intersection * prims.len() as f32;
-        if leaf_cost <= split_cost {
-            return SplitOutcome::Leaf;
-        }
+    if may_stop && leaf_is_cheaper(config, n, cost, node_bounds) {
+        return SplitOutcome::Leaf;
     }
     // The binning put a primitive in bin `floor(clamp(v, 0, bins - 1))` with `v` its bin
     // coordinate; it is in a bin at or left of `plane` (at most `bins - 2`) exactly when

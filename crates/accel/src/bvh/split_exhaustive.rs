@@ -7,7 +7,7 @@
 //! finds the optimal split rather than the best of the bins' planes. From five primitives on
 //! (15 partitions, the unions of 31 subsets) the bins are cheaper again.
 
-use super::build::{BuildPrim, NodeBounds, SplitOutcome};
+use super::build::{BuildPrim, NodeBounds, SplitOutcome, leaf_is_cheaper};
 use super::config::BuildConfig;
 use crate::Aabb;
 
@@ -64,12 +64,8 @@ fn split_n<const N: usize, const S: usize>(
     if !cost.is_finite() {
         return SplitOutcome::NoPositionalSplit;
     }
-    if may_stop {
-        let split_cost = config.sah.traversal
-            + config.sah.intersection * cost / node_bounds.half_area().max(f32::MIN_POSITIVE);
-        if config.sah.intersection * N as f32 <= split_cost {
-            return SplitOutcome::Leaf;
-        }
+    if may_stop && leaf_is_cheaper(config, N, cost, node_bounds) {
+        return SplitOutcome::Leaf;
     }
     let original: [BuildPrim; N] = core::array::from_fn(|i| prims[i]);
     let mut at = 0;

@@ -1,6 +1,6 @@
 //! Full-sweep SAH: every split between consecutive sorted centroids, on every axis.
 
-use super::build::{BuildPrim, SplitOutcome};
+use super::build::{BuildPrim, SplitOutcome, leaf_is_cheaper};
 use super::config::BuildConfig;
 use crate::Aabb;
 
@@ -41,12 +41,8 @@ pub(super) fn split(
     if !cost.is_finite() {
         return SplitOutcome::NoPositionalSplit;
     }
-    if may_stop {
-        let split_cost = config.sah.traversal
-            + config.sah.intersection * cost / node_bounds.half_area().max(f32::MIN_POSITIVE);
-        if config.sah.intersection * n as f32 <= split_cost {
-            return SplitOutcome::Leaf;
-        }
+    if may_stop && leaf_is_cheaper(config, n, cost, node_bounds) {
+        return SplitOutcome::Leaf;
     }
     if axis != 2 {
         sort_on(prims, axis);
