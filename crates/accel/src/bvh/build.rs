@@ -90,8 +90,9 @@ pub(super) enum SplitOutcome {
     /// The slice was partitioned: `[..mid]` goes left, `[mid..]` right; both are non-empty.
     Split(usize),
     /// As `Split`, with the children's bounds, which the strategy found on the way (binned
-    /// SAH: the node boxes from its bins, the centroid bounds from its partition), so the
-    /// children need no pass of their own to find them.
+    /// SAH: the node boxes from its bins, or the node's own box, flagged loose, when it binned
+    /// a sample; centroid bounds from the boxes and the plane), so the children need no pass
+    /// of their own to find them.
     SplitWithBounds(usize, [NodeBounds; 2]),
     /// No split by position exists (all centroids on one plane for this strategy).
     NoPositionalSplit,
@@ -275,12 +276,7 @@ pub(super) fn fitted_box(
 
 /// Gives the nodes in `loose` (in the order they were created) their tight boxes, children
 /// first: the reverse of creation order meets every child before its parent.
-pub(super) fn tighten(
-    nodes: &mut [BvhNode],
-    loose: &[usize],
-    prims: &[BuildPrim],
-    prim_offset: usize,
-) {
+fn tighten(nodes: &mut [BvhNode], loose: &[usize], prims: &[BuildPrim], prim_offset: usize) {
     for &i in loose.iter().rev() {
         let b = fitted_box(nodes, i, |first, count| {
             let first = first - prim_offset;
