@@ -17,7 +17,7 @@ use super::morton::sorted_keys;
 use super::node::BvhNode;
 use super::ploc_search::Search;
 use super::ploc_tree::{
-    COLLAPSED, Collapse, Merge, collapse, layout_tree, post_order, subtree_heights,
+    COLLAPSED, Collapse, Merge, SubtreeCost, collapse_moved, layout_within_depth,
 };
 use super::reinsert::Tree;
 use crate::Aabb;
@@ -119,6 +119,8 @@ pub(super) struct Merger<'a> {
     merges: &'a mut Vec<Merge>,
     first_merge_id: u32,
     rule: Collapse,
+    /// Each merge's subtree cost, kept when reinsertion follows (see [`collapse_moved`]).
+    subtrees: Option<&'a mut Vec<SubtreeCost>>,
 }
 
 impl Merger<'_> {
@@ -139,6 +141,9 @@ impl Merger<'_> {
             hi: m.hi,
             right: b.node | if collapse { COLLAPSED } else { 0 },
         });
+        if let Some(subtrees) = self.subtrees.as_deref_mut() {
+            subtrees.push((cost, prims));
+        }
         (m, cost)
     }
 }
@@ -172,30 +177,21 @@ pub(super) fn build_nodes(
         intersection: config.sah.intersection,
     };
     let radius = radius.clamp(1, MAX_SEARCH_RADIUS);
+    let root = (2 * n).saturating_sub(2) as u32;
     if reinsert_per_mille == 0 || n < 3 {
-        let (merges, leaves, iterations) = cluster(bounds, &order, radius, &rule);
-        let root = (2 * n).saturating_sub(2) as u32;
-        // Each iteration adds at most one level, so only a run of more iterations than
-        // `max_depth` can need the depth fallback, and only then are heights worth computing.
-        let heights = (iterations > config.max_depth as usize)
-            .then(|| subtree_heights(n, &merges, &post_order(n, &merges, root)));
-        return layout_tree(&leaves, &order, &merges, root, heights.as_deref(), config);
+        let (merges, leaves) = cluster(bounds, &order, radius, &rule, None);
+        return layout_within_depth(&leaves, &order, &merges, root, config);
     }
-    // Reinsertion moves nodes of the binary tree; the stopping rules are applied after it.
-    let binary = Collapse {
-        max_leaf: 0,
-        ..rule
-    };
-    let (mut merges, leaves, _) = cluster(bounds, &order, radius, &binary);
+    // Reinsertion moves nodes of the binary tree, so the collapse flags clustering decides
+    // are decided again on every path a move changed.
+    let mut subtrees = Vec::with_capacity(n - 1);
+    let (mut merges, leaves) = cluster(bounds, &order, radius, &rule, Some(&mut subtrees));
     let mut tree = Tree::new(&leaves, &mut merges);
     let batch = (2 * n - 1) * reinsert_per_mille.min(1000) as usize / 1000;
     tree.optimize(batch, REINSERT_ROUNDS);
-    let root = tree.root();
-    let post_order = post_order(n, &merges, root);
-    collapse(&leaves, &mut merges, &post_order, &rule);
-    // Reinsertion deepens trees freely (nested boxes become a chain, their SAH optimum).
-    let heights = subtree_heights(n, &merges, &post_order);
-    layout_tree(&leaves, &order, &merges, root, Some(&heights), config)
+    let (root, moved) = tree.finish();
+    collapse_moved(&leaves, &mut merges, &mut subtrees, &moved, root, &rule);
+    layout_within_depth(&leaves, &order, &merges, root, config)
 }
 
 /// Clusters and the SAH costs of their subtrees (area-weighted, not divided by the root's
@@ -284,14 +280,15 @@ impl Io for InPlace<'_> {
 }
 
 /// Runs the clustering over the primitives in curve order; returns the merges (the last one
-/// the root; none for fewer than two primitives), the primitives' boxes in curve order and the
-/// number of iterations.
+/// the root; none for fewer than two primitives) and the primitives' boxes in curve order.
+/// Each merge's subtree cost goes to `subtrees` when given.
 fn cluster(
     bounds: &[Aabb],
     order: &[u32],
     radius: u32,
     rule: &Collapse,
-) -> (Vec<Merge>, Vec<Cluster>, usize) {
+    subtrees: Option<&mut Vec<SubtreeCost>>,
+) -> (Vec<Merge>, Vec<Cluster>) {
     let n = order.len();
     // One tight loop for the random reads of the boxes, so that many are in flight at once.
     let leaves: Vec<Cluster> = order
@@ -301,12 +298,13 @@ fn cluster(
         .collect();
     let mut merges = Vec::with_capacity(n.saturating_sub(1));
     if n < 2 {
-        return (merges, leaves, 0);
+        return (merges, leaves);
     }
     let mut merger = Merger {
         merges: &mut merges,
         first_merge_id: n as u32,
         rule: *rule,
+        subtrees,
     };
     let mut driver = Driver {
         radius,
@@ -323,14 +321,12 @@ fn cluster(
         dst: &mut cur,
     };
     driver.step(first, &mut merger);
-    let mut iterations = 1;
     while cur.cl.len() > 1 {
         let next = driver.step(InPlace(&mut cur), &mut merger);
         cur.cl.truncate(next);
         cur.cost.truncate(next);
-        iterations += 1;
     }
-    (merges, leaves, iterations)
+    (merges, leaves)
 }
 
 /// Chooses each iteration's pass.
@@ -469,6 +465,7 @@ pub(super) mod tests {
                 merges: &mut ma,
                 first_merge_id: n as u32,
                 rule: RULE,
+                subtrees: None,
             };
             let left_a = pass_radius_one(&mut InPlace(&mut a), &mut merger);
             let mut search = Search::new(n);
@@ -477,6 +474,7 @@ pub(super) mod tests {
                 merges: &mut mb,
                 first_merge_id: n as u32,
                 rule: RULE,
+                subtrees: None,
             };
             let left_b = search.merge_mutual(&mut InPlace(&mut b), &mut merger);
             let nodes =
@@ -486,16 +484,76 @@ pub(super) mod tests {
         }
     }
 
+    /// After reinsertion, deciding the collapse only on the moved paths sets every merge's
+    /// flag as deciding it over the whole tree does.
+    #[test]
+    fn collapse_of_moved_paths_equals_a_full_pass() {
+        // Small boxes along a line (so the identity order is a good curve order) and every
+        // fiftieth one large: what reinsertion lifts.
+        let mut next = crate::test_floats(5);
+        let boxes: Vec<Aabb> = (0..3_000)
+            .map(|i| {
+                let c = Vec3A::new(i as f32 * 0.1, next(), next());
+                let half = if i % 50 == 0 { 20.0 } else { 0.2 } * (next() + 0.1);
+                Aabb::from_center_half_extents(c, Vec3A::splat(half))
+            })
+            .collect();
+        let order: Vec<u32> = (0..boxes.len() as u32).collect();
+        let rule = Collapse {
+            max_leaf: 8,
+            by_sah: true,
+            traversal: 2.0,
+            intersection: 1.0,
+        };
+        let mut subtrees = Vec::new();
+        let (mut merges, leaves) = cluster(&boxes, &order, 1, &rule, Some(&mut subtrees));
+        let mut tree = Tree::new(&leaves, &mut merges);
+        tree.optimize(300, REINSERT_ROUNDS);
+        let (root, moved) = tree.finish();
+        assert!(moved.iter().any(|&m| m) && !moved.iter().all(|&m| m));
+        collapse_moved(&leaves, &mut merges, &mut subtrees, &moved, root, &rule);
+        let n = leaves.len();
+        // The full pass: every merge decided again, children first.
+        fn decide(
+            id: u32,
+            n: usize,
+            leaves: &[Cluster],
+            merges: &[Merge],
+            rule: &Collapse,
+            out: &mut Vec<bool>,
+        ) -> (f32, u32) {
+            let Some(m) = (id as usize).checked_sub(n) else {
+                return (rule.intersection * leaves[id as usize].half_area(), 1);
+            };
+            let merge = merges[m];
+            let (cl, pl) = decide(merge.left, n, leaves, merges, rule, out);
+            let (cr, pr) = decide(merge.right & !COLLAPSED, n, leaves, merges, rule, out);
+            let area = Cluster {
+                lo: merge.lo,
+                hi: merge.hi,
+                ..Cluster::default()
+            }
+            .half_area();
+            let (flag, cost) = rule.decide(pl + pr, area, cl, cr);
+            out[m] = flag;
+            (cost, pl + pr)
+        }
+        let mut want = vec![false; merges.len()];
+        decide(root, n, &leaves, &merges, &rule, &mut want);
+        let got: Vec<bool> = merges.iter().map(|m| m.right & COLLAPSED != 0).collect();
+        assert_eq!(got, want);
+    }
+
     #[test]
     fn identical_boxes_halve_every_iteration() {
         let boxes = vec![Aabb::from_point(Vec3A::ONE); 1024];
         for radius in [1, 2, 5] {
             let order: Vec<u32> = (0..1024).collect();
-            let (merges, leaves, _) = cluster(&boxes, &order, radius, &RULE);
+            let (merges, leaves) = cluster(&boxes, &order, radius, &RULE, None);
             assert_eq!(merges.len(), 1023);
             let config = BuildConfig::default();
             let (nodes, primitive_indices) =
-                layout_tree(&leaves, &order, &merges, 2046, None, &config);
+                layout_within_depth(&leaves, &order, &merges, 2046, &config);
             let bvh = crate::Bvh {
                 nodes,
                 primitive_indices,

@@ -49,7 +49,7 @@ impl Collapse {
 }
 
 /// The merge indices under `root`, children before parents.
-pub(super) fn post_order(n: usize, merges: &[Merge], root: u32) -> Vec<u32> {
+fn post_order(n: usize, merges: &[Merge], root: u32) -> Vec<u32> {
     let mut out = Vec::with_capacity(merges.len());
     let mut work = vec![(root, false)];
     while let Some((id, children_done)) = work.pop() {
@@ -67,7 +67,7 @@ pub(super) fn post_order(n: usize, merges: &[Merge], root: u32) -> Vec<u32> {
 }
 
 /// The height each merge's subtree will have once laid out (collapsed subtrees are leaves).
-pub(super) fn subtree_heights(n: usize, merges: &[Merge], post_order: &[u32]) -> Vec<u32> {
+fn subtree_heights(n: usize, merges: &[Merge], post_order: &[u32]) -> Vec<u32> {
     let mut height = vec![0u32; merges.len()];
     for &m in post_order {
         let merge = &merges[m as usize];
@@ -79,24 +79,41 @@ pub(super) fn subtree_heights(n: usize, merges: &[Merge], post_order: &[u32]) ->
     height
 }
 
-/// Sets the collapse flags of a tree whose merges are in no particular order (after
-/// reinsertion), visiting them in `post_order`.
-pub(super) fn collapse(
+/// The SAH cost of a merge's subtree (area-weighted, collapsed where a leaf is cheaper) and
+/// how many primitives it holds: what deciding its parent's collapse needs.
+pub(super) type SubtreeCost = (f32, u32);
+
+/// Sets the collapse flags again where reinsertion changed the tree. Clustering decided every
+/// merge's flag and recorded its `subtrees` cost; a merge whose subtree reinsertion left alone
+/// (not `moved`) keeps both, so only the moved merges, the paths from each move to the root,
+/// are visited, children before parents. Deciding them over the whole tree again took a quarter
+/// of reinsertion's fixed cost (a post-order and a pass over two million merges on a million
+/// triangles) for the few thousand paths a batch changes.
+pub(super) fn collapse_moved(
     leaves: &[Cluster],
     merges: &mut [Merge],
-    post_order: &[u32],
+    subtrees: &mut [SubtreeCost],
+    moved: &[bool],
+    root: u32,
     rule: &Collapse,
 ) {
     let n = leaves.len();
-    let mut done = vec![(0.0f32, 0u32); merges.len()];
-    for &m in post_order {
-        let merge = &mut merges[m as usize];
-        let [l, r] = [merge.left, merge.right & !COLLAPSED];
+    let mut work = vec![(root, false)];
+    while let Some((id, children_done)) = work.pop() {
+        let Some(m) = (id as usize).checked_sub(n).filter(|&m| moved[m]) else {
+            continue;
+        };
+        let [l, r] = [merges[m].left, merges[m].right & !COLLAPSED];
+        if !children_done {
+            work.extend([(id, true), (l, false), (r, false)]);
+            continue;
+        }
         let of = |c: u32| match (c as usize).checked_sub(n) {
             None => (rule.intersection * leaves[c as usize].half_area(), 1),
-            Some(c) => done[c],
+            Some(c) => subtrees[c],
         };
         let ((cost_l, prims_l), (cost_r, prims_r)) = (of(l), of(r));
+        let merge = &mut merges[m];
         let area = Cluster {
             lo: merge.lo,
             hi: merge.hi,
@@ -105,13 +122,36 @@ pub(super) fn collapse(
         .half_area();
         let (flag, cost) = rule.decide(prims_l + prims_r, area, cost_l, cost_r);
         merge.right = r | if flag { COLLAPSED } else { 0 };
-        done[m as usize] = (cost, prims_l + prims_r);
+        subtrees[m] = (cost, prims_l + prims_r);
     }
+}
+
+/// [`layout_tree`], kept within `config.max_depth`. A bottom-up tree has no depth bound of its
+/// own, yet it is rarely deeper than the limit (36 levels for a million triangles after
+/// reinsertion, against 64), so the tree is laid out as it is first, and only a layout that
+/// went too deep is redone with the subtree heights that tell where to rebuild.
+pub(super) fn layout_within_depth(
+    leaves: &[Cluster],
+    order: &[u32],
+    merges: &[Merge],
+    root: u32,
+    config: &BuildConfig,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    let (nodes, prims, deepest) = layout_tree(leaves, order, merges, root, None, config);
+    if deepest <= config.max_depth {
+        return (nodes, prims);
+    }
+    let n = order.len();
+    let heights = subtree_heights(n, merges, &post_order(n, merges, root));
+    let (nodes, prims, _) = layout_tree(leaves, order, merges, root, Some(&heights), config);
+    (nodes, prims)
 }
 
 /// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
 /// together after their parent, depth-first with the left child first, so that leaves take
 /// contiguous, increasing ranges of the primitive order. Collapsed subtrees become one leaf.
+/// Returns the nodes, the primitive order and the depth of the deepest leaf (a subtree rebuilt
+/// top-down counts as reaching `max_depth`).
 ///
 /// `heights` (the laid-out height of each merge's subtree) is given when the tree may be
 /// deeper than `config.max_depth`: a subtree that would cross it is rebuilt top-down, binned
@@ -125,12 +165,13 @@ pub(super) fn layout_tree(
     root: u32,
     heights: Option<&[u32]>,
     config: &BuildConfig,
-) -> (Vec<BvhNode>, Vec<u32>) {
+) -> (Vec<BvhNode>, Vec<u32>, u32) {
     let n = order.len();
     let mut prims = Vec::with_capacity(n);
     if n == 0 {
-        return (Vec::new(), prims);
+        return (Vec::new(), prims, 0);
     }
+    let mut deepest = 0;
     let mut nodes = Vec::with_capacity(2 * n - 1);
     nodes.push(BvhNode::default());
     let mut work = vec![(0usize, root, 0u32)];
@@ -146,6 +187,7 @@ pub(super) fn layout_tree(
                 count: 1,
             };
             prims.push(order[id as usize]);
+            deepest = deepest.max(depth);
             continue;
         };
         let collapsed = m.right & COLLAPSED != 0;
@@ -188,6 +230,7 @@ pub(super) fn layout_tree(
             };
             nodes[slot] = place(sub[0]);
             nodes.extend(sub[1..].iter().map(|&node| place(node)));
+            deepest = deepest.max(config.max_depth);
             continue;
         }
         let next_free = nodes.len();
@@ -198,6 +241,7 @@ pub(super) fn layout_tree(
             node.first = prims.len() as u32;
             node.count = subtree.len() as u32;
             prims.extend(subtree.iter().map(|&s| order[s as usize]));
+            deepest = deepest.max(depth);
         } else {
             node.first = next_free as u32;
             node.count = 0;
@@ -207,5 +251,5 @@ pub(super) fn layout_tree(
             work.push((next_free, m.left, depth + 1));
         }
     }
-    (nodes, prims)
+    (nodes, prims, deepest)
 }

@@ -51,6 +51,9 @@ pub(super) struct Tree<'a> {
     /// Half the surface area of every node's box, kept up to date by the refits: choosing
     /// candidates reads all of them every round.
     area: Vec<f32>,
+    /// The merges a refit went through: every subtree that changed, for
+    /// [`super::ploc_tree::collapse_moved`].
+    moved: Vec<bool>,
     root: u32,
     stack: Vec<(f32, u32)>,
 }
@@ -79,6 +82,7 @@ impl<'a> Tree<'a> {
             merges,
             parent,
             area,
+            moved: vec![false; n - 1],
             stack: Vec::new(),
         }
     }
@@ -250,15 +254,18 @@ impl<'a> Tree<'a> {
         while id != NONE {
             let [l, r] = self.children(id).expect("only merges are refit");
             let b = self.bounds(l).union(&self.bounds(r));
-            let m = &mut self.merges[id as usize - self.leaves.len()];
+            let m = id as usize - self.leaves.len();
+            self.moved[m] = true;
+            let m = &mut self.merges[m];
             (m.lo, m.hi) = (b.lo, b.hi);
             self.area[id as usize] = b.half_area();
             id = self.parent[id as usize];
         }
     }
 
-    /// The root's node id (it changes when a reinsertion moves a node next to the old root).
-    pub fn root(&self) -> u32 {
-        self.root
+    /// The root's node id (it changes when a reinsertion moves a node next to the old root)
+    /// and which merges' subtrees changed (indexed by merge).
+    pub fn finish(self) -> (u32, Vec<bool>) {
+        (self.root, self.moved)
     }
 }
