@@ -11,7 +11,6 @@
 //!
 //! It works on PLOC's merge records, before the tree is collapsed into leaves and laid out.
 
-use super::morton::radix_sort;
 use super::ploc::{Cluster, fmax, fmin};
 use super::ploc_tree::{COLLAPSED, Merge};
 
@@ -88,12 +87,14 @@ impl<'a> Tree<'a> {
     }
 
     #[inline(always)]
+    fn leaf_bounds(c: &Cluster) -> Bounds {
+        Bounds { lo: c.lo, hi: c.hi }
+    }
+
+    #[inline(always)]
     fn bounds(&self, id: u32) -> Bounds {
         match (id as usize).checked_sub(self.leaves.len()) {
-            None => {
-                let c = &self.leaves[id as usize];
-                Bounds { lo: c.lo, hi: c.hi }
-            }
+            None => Self::leaf_bounds(&self.leaves[id as usize]),
             Some(m) => {
                 let m = &self.merges[m];
                 Bounds { lo: m.lo, hi: m.hi }
@@ -116,15 +117,20 @@ impl<'a> Tree<'a> {
     }
 
     /// Runs `rounds` rounds; round `i` offers the `batch / (2 i + 1)` nodes with the largest
-    /// boxes for reinsertion, largest first (the schedule of the paper's implementation in
-    /// `madmann91/bvh`, which spends most of its effort near the top of the tree).
+    /// boxes for reinsertion (the schedule of the paper's implementation in `madmann91/bvh`,
+    /// which spends most of its effort near the top of the tree).
+    ///
+    /// A round moves its nodes in increasing id: the primitives in curve order, then the merges
+    /// in the order clustering made them, from the bottom up. On a million triangles this finds
+    /// a cheaper tree than moving the largest first (SAH 421.45 against 425.89, 1.5% of the
+    /// nodes in four rounds), and each search starts near the previous one, so they share the
+    /// cache.
     pub fn optimize(&mut self, batch: usize, rounds: u32) {
-        let mut keys = Vec::new();
+        let mut ids = Vec::new();
         for round in 0..rounds as usize {
             let want = (batch / (2 * round + 1)).max(1);
-            self.largest(want, &mut keys);
-            for &key in keys.iter().rev() {
-                let node = key as u32;
+            self.largest(want, &mut ids);
+            for &node in &ids {
                 if let Some((to, _)) = self.find(node) {
                     self.reinsert(node, to);
                 }
@@ -132,10 +138,11 @@ impl<'a> Tree<'a> {
         }
     }
 
-    /// The `want` nodes (the root aside) with the largest boxes, as `area bits << 32 | id`
-    /// keys in increasing order. A histogram of the areas' top bits finds the threshold in one
-    /// pass; only the nodes above it are sorted.
-    fn largest(&self, want: usize, keys: &mut Vec<u64>) {
+    /// The `want` nodes (the root aside) with the largest boxes, in increasing id. A
+    /// histogram of the areas' top bits finds the area bucket where the cut falls in one
+    /// pass; the second pass collects the nodes at or above it, and only the ones in that
+    /// bucket are ordered, to drop the smallest.
+    fn largest(&self, want: usize, ids: &mut Vec<u32>) {
         // Positive floats order like their bits; NaN areas (0 times infinity) are never moved.
         let key = |a: f32| -> Option<u32> { (a >= 0.0).then_some(a.to_bits()) };
         let mut hist = vec![0u32; 1 << 12];
@@ -153,15 +160,28 @@ impl<'a> Tree<'a> {
                 break;
             }
         }
-        keys.clear();
+        ids.clear();
+        // The cut bucket's nodes as `area bits << 32 | id`: a total order, so ties are cut
+        // the same way whatever order they come in.
+        let mut edge = Vec::new();
         for (id, &a) in self.area.iter().enumerate() {
-            if let Some(k) = key(a).filter(|k| k >> 20 >= threshold && id as u32 != self.root) {
-                keys.push((u64::from(k) << 32) | id as u64);
+            let Some(k) = key(a).filter(|k| k >> 20 >= threshold && id as u32 != self.root) else {
+                continue;
+            };
+            ids.push(id as u32);
+            if k >> 20 == threshold {
+                edge.push((u64::from(k) << 32) | id as u64);
             }
         }
-        radix_sort(keys, 32..64);
-        let extra = keys.len().saturating_sub(want);
-        keys.drain(..extra);
+        let extra = ids.len().saturating_sub(want);
+        if extra > 0 {
+            // Fewer than `want` nodes lie above the cut bucket, so `extra < edge.len()`.
+            let (_, &mut cut, _) = edge.select_nth_unstable(extra - 1);
+            ids.retain(|&id| {
+                let k = self.area[id as usize].to_bits();
+                k >> 20 != threshold || (u64::from(k) << 32) | u64::from(id) > cut
+            });
+        }
     }
 
     /// The best new sibling for `node` and the area it saves, if any saves area: a
@@ -267,5 +287,62 @@ impl<'a> Tree<'a> {
     /// and which merges' subtrees changed (indexed by merge).
     pub fn finish(self) -> (u32, Vec<bool>) {
         (self.root, self.moved)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::ploc::tests::{clusters_of, coarse_boxes};
+    use super::*;
+
+    /// A balanced tree over `leaves`: neighbours paired level by level.
+    fn paired_tree(leaves: &[Cluster]) -> Vec<Merge> {
+        let n = leaves.len();
+        let mut level: Vec<(u32, Bounds)> = (0..n)
+            .map(|i| (i as u32, Tree::leaf_bounds(&leaves[i])))
+            .collect();
+        let mut merges = Vec::new();
+        while level.len() > 1 {
+            let mut next = Vec::new();
+            for pair in level.chunks(2) {
+                match *pair {
+                    [(a, ab), (b, bb)] => {
+                        let u = ab.union(&bb);
+                        merges.push(Merge {
+                            lo: u.lo,
+                            left: a,
+                            hi: u.hi,
+                            right: b,
+                        });
+                        next.push(((n + merges.len() - 1) as u32, u));
+                    }
+                    [single] => next.push(single),
+                    _ => unreachable!(),
+                }
+            }
+            level = next;
+        }
+        merges
+    }
+
+    /// The candidates are the `want` largest boxes under the total order (area, then id), the
+    /// root left out, whatever the ties; and they come in increasing id.
+    #[test]
+    fn largest_takes_the_largest_boxes_in_id_order() {
+        let leaves = clusters_of(&coarse_boxes(1_000, 3)).cl;
+        let mut merges = paired_tree(&leaves);
+        let tree = Tree::new(&leaves, &mut merges);
+        let mut all: Vec<(u32, u32)> = (0..tree.area.len() as u32)
+            .filter(|&id| id != tree.root)
+            .map(|id| (tree.area[id as usize].to_bits(), id))
+            .collect();
+        all.sort_unstable_by(|a, b| b.cmp(a));
+        let mut ids = Vec::new();
+        for want in [1, 2, 17, 300, 1_000, all.len()] {
+            tree.largest(want, &mut ids);
+            let mut expect: Vec<u32> = all[..want].iter().map(|&(_, id)| id).collect();
+            expect.sort_unstable();
+            assert_eq!(ids, expect, "want {want}");
+        }
     }
 }
