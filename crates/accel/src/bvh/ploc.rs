@@ -44,6 +44,9 @@ const TOP_CLUSTERS: usize = 32;
 /// See [`TOP_CLUSTERS`].
 const TOP_RADIUS: u32 = 4;
 
+/// How many boxes ahead of the one it reads the gather into curve order asks for a box.
+const GATHER_AHEAD: usize = 32;
+
 /// Reinsertion rounds (see [`Tree::optimize`]). On the million-triangle benchmark scene the
 /// first round moves 9,599 nodes and the second 661; four rounds take the SAH cost from 427.9
 /// only to 427.5.
@@ -292,11 +295,17 @@ fn cluster(
     subtrees: Option<&mut Vec<SubtreeCost>>,
 ) -> (Vec<Merge>, Vec<Cluster>) {
     let n = order.len();
-    // One tight loop for the random reads of the boxes, so that many are in flight at once.
+    // The boxes are read in curve order, each at a random place: asking for the one
+    // `GATHER_AHEAD` places on overlaps the cache misses (1M triangles: 16.8 -> 6.2 ms).
     let leaves: Vec<Cluster> = order
         .iter()
         .enumerate()
-        .map(|(slot, &id)| Cluster::leaf(&bounds[id as usize], slot as u32))
+        .map(|(slot, &id)| {
+            if let Some(&ahead) = order.get(slot + GATHER_AHEAD) {
+                crate::prefetch::prefetch_value(&bounds[ahead as usize]);
+            }
+            Cluster::leaf(&bounds[id as usize], slot as u32)
+        })
         .collect();
     let mut merges = Vec::with_capacity(n.saturating_sub(1));
     if n < 2 {
