@@ -45,7 +45,7 @@ const TOP_CLUSTERS: usize = 32;
 const TOP_RADIUS: u32 = 4;
 
 /// How many boxes ahead of the one it reads the gather into curve order asks for a box.
-const GATHER_AHEAD: usize = 32;
+pub(super) const GATHER_AHEAD: u32 = 32;
 
 /// Reinsertion rounds (see [`Tree::optimize`]). On the million-triangle benchmark scene the
 /// first round moves 9,599 nodes and the second 661; four rounds take the SAH cost from 427.9
@@ -174,6 +174,7 @@ pub(super) fn build_nodes(
     }
     let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
     drop(keys);
+    let prims = CurveBoxes::new(bounds, &order);
 
     let rule = Collapse {
         max_leaf: config.max_leaf_size,
@@ -184,19 +185,19 @@ pub(super) fn build_nodes(
     let radius = radius.clamp(1, MAX_SEARCH_RADIUS);
     let root = (2 * n).saturating_sub(2) as u32;
     if reinsert_per_mille == 0 || n < 3 {
-        let (merges, leaves) = cluster(bounds, &order, radius, &rule, None);
-        return layout_within_depth(&leaves, &order, &merges, root, config);
+        let merges = cluster(prims, radius, &rule, None);
+        return layout_within_depth(prims, &merges, root, config);
     }
     // Reinsertion moves nodes of the binary tree, so the collapse flags clustering decides
     // are decided again on every path a move changed.
     let mut subtrees = Vec::with_capacity(n - 1);
-    let (mut merges, leaves) = cluster(bounds, &order, radius, &rule, Some(&mut subtrees));
-    let mut tree = Tree::new(&leaves, &mut merges);
+    let mut merges = cluster(prims, radius, &rule, Some(&mut subtrees));
+    let mut tree = Tree::new(prims, &mut merges);
     let batch = (2 * n - 1) * reinsert_per_mille.min(1000) as usize / 1000;
     tree.optimize(batch, REINSERT_ROUNDS);
     let (root, moved) = tree.finish();
-    collapse_moved(&leaves, &mut merges, &mut subtrees, &moved, root, &rule);
-    layout_within_depth(&leaves, &order, &merges, root, config)
+    collapse_moved(prims, &mut merges, &mut subtrees, &moved, root, &rule);
+    layout_within_depth(prims, &merges, root, config)
 }
 
 /// Clusters and the SAH costs of their subtrees (area-weighted, not divided by the root's
@@ -207,110 +208,98 @@ pub(super) struct Clusters {
     pub cost: Vec<f32>,
 }
 
-/// Where an iteration reads the clusters and writes the next ones: from the leaves into a
-/// buffer, then in place in that buffer. Writes never overtake reads (merged clusters take
-/// the left member's place), so one buffer serves every iteration after the first, and the
-/// leaves stay intact for the layout.
-pub(super) trait Io {
-    /// The clusters this iteration reads.
-    fn clusters(&self) -> &[Cluster];
-    /// The subtree cost of cluster `i`.
-    fn cost(&self, i: usize) -> f32;
-    /// Writes the `to`th cluster of the next iteration; `to` is never past the cluster being
-    /// read.
-    fn put(&mut self, to: usize, c: Cluster, cost: f32);
-
+/// An iteration reads the clusters and writes the next ones in place: writes never overtake
+/// reads (merged clusters take the left member's place, and slots after the one being read
+/// are still unread), so one buffer serves every iteration.
+impl Clusters {
     /// Copies cluster `i` to slot `to`.
     #[inline(always)]
-    fn keep(&mut self, i: usize, to: usize) {
-        let c = self.clusters()[i];
-        let cost = self.cost(i);
-        self.put(to, c, cost);
+    pub fn keep(&mut self, i: usize, to: usize) {
+        self.cl[to] = self.cl[i];
+        self.cost[to] = self.cost[i];
     }
 
     /// Merges clusters `a` and `b` into slot `to`.
     #[inline(always)]
-    fn merge(&mut self, a: usize, b: usize, to: usize, merger: &mut Merger<'_>) {
-        let cl = self.clusters();
-        let (ca, cb) = (cl[a], cl[b]);
-        let (c, cost) = merger.merge(&ca, self.cost(a), &cb, self.cost(b));
-        self.put(to, c, cost);
+    pub fn merge(&mut self, a: usize, b: usize, to: usize, merger: &mut Merger<'_>) {
+        let (ca, cb) = (self.cl[a], self.cl[b]);
+        let (c, cost) = merger.merge(&ca, self.cost[a], &cb, self.cost[b]);
+        self.cl[to] = c;
+        self.cost[to] = cost;
     }
 }
 
-/// The first iteration: primitives (their cost computed, not stored) into a buffer.
-struct FromLeaves<'a> {
-    leaves: &'a [Cluster],
-    intersection: f32,
-    dst: &'a mut Clusters,
+/// The primitives' boxes in curve order, read from the caller's boxes through the sort order.
+/// Clustering works in place on one gathered copy, which merges overwrite; what needs a
+/// primitive's box afterwards (the layout's single-primitive leaves, the collapse and
+/// reinsertion) reads it here. A second, kept copy would be 32 bytes a primitive of fresh
+/// memory every build, and on this VM fresh memory costs about 2 us a 4 KB page.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CurveBoxes<'a> {
+    bounds: &'a [Aabb],
+    order: &'a [u32],
 }
 
-impl Io for FromLeaves<'_> {
-    #[inline(always)]
-    fn clusters(&self) -> &[Cluster] {
-        self.leaves
+impl<'a> CurveBoxes<'a> {
+    /// The boxes `bounds[order[0]]`, `bounds[order[1]]`, ...
+    pub fn new(bounds: &'a [Aabb], order: &'a [u32]) -> Self {
+        Self { bounds, order }
     }
 
+    /// How many primitives.
     #[inline(always)]
-    fn cost(&self, i: usize) -> f32 {
-        self.intersection * self.leaves[i].half_area()
+    pub fn len(&self) -> usize {
+        self.order.len()
     }
 
+    /// The caller's index of the primitive at curve position `slot`.
     #[inline(always)]
-    fn put(&mut self, _to: usize, c: Cluster, cost: f32) {
-        self.dst.cl.push(c);
-        self.dst.cost.push(cost);
-    }
-}
-
-/// Every later iteration, in place.
-pub(super) struct InPlace<'a>(pub &'a mut Clusters);
-
-impl Io for InPlace<'_> {
-    #[inline(always)]
-    fn clusters(&self) -> &[Cluster] {
-        &self.0.cl
+    pub fn id(&self, slot: u32) -> u32 {
+        self.order[slot as usize]
     }
 
+    /// The primitive at curve position `slot`, as a one-primitive cluster.
     #[inline(always)]
-    fn cost(&self, i: usize) -> f32 {
-        self.0.cost[i]
+    pub fn leaf(&self, slot: u32) -> Cluster {
+        Cluster::leaf(&self.bounds[self.id(slot) as usize], slot)
     }
 
+    /// Asks for the box of the primitive at `slot` ahead of its read.
     #[inline(always)]
-    fn put(&mut self, to: usize, c: Cluster, cost: f32) {
-        self.0.cl[to] = c;
-        self.0.cost[to] = cost;
+    pub fn prefetch(&self, slot: u32) {
+        if let Some(&id) = self.order.get(slot as usize) {
+            crate::prefetch::prefetch_value(&self.bounds[id as usize]);
+        }
     }
 }
 
 /// Runs the clustering over the primitives in curve order; returns the merges (the last one
-/// the root; none for fewer than two primitives) and the primitives' boxes in curve order.
-/// Each merge's subtree cost goes to `subtrees` when given.
+/// the root; none for fewer than two primitives). Each merge's subtree cost goes to
+/// `subtrees` when given.
 fn cluster(
-    bounds: &[Aabb],
-    order: &[u32],
+    prims: CurveBoxes<'_>,
     radius: u32,
     rule: &Collapse,
     subtrees: Option<&mut Vec<SubtreeCost>>,
-) -> (Vec<Merge>, Vec<Cluster>) {
-    let n = order.len();
-    // The boxes are read in curve order, each at a random place: asking for the one
-    // `GATHER_AHEAD` places on overlaps the cache misses (1M triangles: 16.8 -> 6.2 ms).
-    let leaves: Vec<Cluster> = order
-        .iter()
-        .enumerate()
-        .map(|(slot, &id)| {
-            if let Some(&ahead) = order.get(slot + GATHER_AHEAD) {
-                crate::prefetch::prefetch_value(&bounds[ahead as usize]);
-            }
-            Cluster::leaf(&bounds[id as usize], slot as u32)
-        })
-        .collect();
+) -> Vec<Merge> {
+    let n = prims.len();
     let mut merges = Vec::with_capacity(n.saturating_sub(1));
     if n < 2 {
-        return (merges, leaves);
+        return merges;
     }
+    // The boxes are read in curve order, each at a random place: asking for the one
+    // `GATHER_AHEAD` places on overlaps the cache misses (1M triangles: 16.8 -> 6.2 ms).
+    let cl: Vec<Cluster> = (0..n as u32)
+        .map(|slot| {
+            prims.prefetch(slot + GATHER_AHEAD);
+            prims.leaf(slot)
+        })
+        .collect();
+    let cost = cl
+        .iter()
+        .map(|c| rule.intersection * c.half_area())
+        .collect();
+    let mut cur = Clusters { cl, cost };
     let mut merger = Merger {
         merges: &mut merges,
         first_merge_id: n as u32,
@@ -322,22 +311,12 @@ fn cluster(
         search: Search::new(if radius > 1 { n } else { TOP_CLUSTERS }),
         fallback: 0,
     };
-    let mut cur = Clusters {
-        cl: Vec::with_capacity(n),
-        cost: Vec::with_capacity(n),
-    };
-    let first = FromLeaves {
-        leaves: &leaves,
-        intersection: rule.intersection,
-        dst: &mut cur,
-    };
-    driver.step(first, &mut merger);
     while cur.cl.len() > 1 {
-        let next = driver.step(InPlace(&mut cur), &mut merger);
+        let next = driver.step(&mut cur, &mut merger);
         cur.cl.truncate(next);
         cur.cost.truncate(next);
     }
-    (merges, leaves)
+    merges
 }
 
 /// Chooses each iteration's pass.
@@ -351,18 +330,18 @@ struct Driver {
 
 impl Driver {
     /// Runs one iteration; returns the number of clusters left.
-    fn step<I: Io>(&mut self, mut io: I, merger: &mut Merger<'_>) -> usize {
-        let count = io.clusters().len();
+    fn step(&mut self, cur: &mut Clusters, merger: &mut Merger<'_>) -> usize {
+        let count = cur.cl.len();
         let radius = match count {
             ..=TOP_CLUSTERS => self.radius.max(TOP_RADIUS),
             _ => self.radius,
         };
         let next = match (self.fallback, radius) {
-            (2.., _) => pair_blindly(&mut io, merger),
-            (1, _) | (_, 1) => pass_radius_one(&mut io, merger),
+            (2.., _) => pair_blindly(cur, merger),
+            (1, _) | (_, 1) => pass_radius_one(cur, merger),
             _ => {
-                self.search.find(io.clusters(), radius as usize);
-                self.search.merge_mutual(&mut io, merger)
+                self.search.find(&cur.cl, radius as usize);
+                self.search.merge_mutual(cur, merger)
             }
         };
         let stalled = (count - next) * STALL_FRACTION < count;
@@ -378,9 +357,9 @@ impl Driver {
 /// The radius-1 iteration: cluster `i` picks `i + 1` when the union to the right is smaller
 /// than the one to the left, so a pair merges when its union is a local minimum of the
 /// sequence of adjacent unions, which one scan finds. Returns the number of clusters left.
-fn pass_radius_one<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
-    let count = io.clusters().len();
-    let area = |io: &I, i: usize| match io.clusters().get(i..i + 2) {
+fn pass_radius_one(cur: &mut Clusters, merger: &mut Merger<'_>) -> usize {
+    let count = cur.cl.len();
+    let area = |cur: &Clusters, i: usize| match cur.cl.get(i..i + 2) {
         Some([a, b]) => a.union_area(b),
         _ => f32::INFINITY,
     };
@@ -390,20 +369,20 @@ fn pass_radius_one<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
     let mut i = 0;
     let mut to = 0;
     let mut left = f32::INFINITY;
-    let mut here = area(io, 0);
+    let mut here = area(cur, 0);
     while i + 1 < count {
         // Read before the write below: `to <= i`, and slot `i + 2` is still unread.
-        let right = area(io, i + 1);
+        let right = area(cur, i + 1);
         let even = i % 2 == 0;
         let i_picks_right = here < left || (here == left && even);
         let next_picks_left = here < right || (here == right && even);
         if i_picks_right && next_picks_left {
-            io.merge(i, i + 1, to, merger);
+            cur.merge(i, i + 1, to, merger);
             left = right;
             i += 2;
-            here = area(io, i);
+            here = area(cur, i);
         } else {
-            io.keep(i, to);
+            cur.keep(i, to);
             left = here;
             here = right;
             i += 1;
@@ -411,20 +390,20 @@ fn pass_radius_one<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
         to += 1;
     }
     if i < count {
-        io.keep(i, to);
+        cur.keep(i, to);
         to += 1;
     }
     to
 }
 
 /// The stall guard's last resort: merges slots (0, 1), (2, 3), ... whatever their areas.
-fn pair_blindly<I: Io>(io: &mut I, merger: &mut Merger<'_>) -> usize {
-    let count = io.clusters().len();
+fn pair_blindly(cur: &mut Clusters, merger: &mut Merger<'_>) -> usize {
+    let count = cur.cl.len();
     for to in 0..count / 2 {
-        io.merge(2 * to, 2 * to + 1, to, merger);
+        cur.merge(2 * to, 2 * to + 1, to, merger);
     }
     if count % 2 == 1 {
-        io.keep(count - 1, count / 2);
+        cur.keep(count - 1, count / 2);
     }
     count.div_ceil(2)
 }
@@ -478,7 +457,7 @@ pub(super) mod tests {
                 rule: RULE,
                 subtrees: None,
             };
-            let left_a = pass_radius_one(&mut InPlace(&mut a), &mut merger);
+            let left_a = pass_radius_one(&mut a, &mut merger);
             let mut search = Search::new(n);
             search.find(&b.cl, 1);
             let mut merger = Merger {
@@ -487,7 +466,7 @@ pub(super) mod tests {
                 rule: RULE,
                 subtrees: None,
             };
-            let left_b = search.merge_mutual(&mut InPlace(&mut b), &mut merger);
+            let left_b = search.merge_mutual(&mut b, &mut merger);
             let nodes =
                 |c: &Clusters, k: usize| c.cl[..k].iter().map(|c| c.node).collect::<Vec<_>>();
             assert_eq!(nodes(&a, left_a), nodes(&b, left_b), "n {n}");
@@ -517,24 +496,25 @@ pub(super) mod tests {
             intersection: 1.0,
         };
         let mut subtrees = Vec::new();
-        let (mut merges, leaves) = cluster(&boxes, &order, 1, &rule, Some(&mut subtrees));
-        let mut tree = Tree::new(&leaves, &mut merges);
+        let prims = CurveBoxes::new(&boxes, &order);
+        let mut merges = cluster(prims, 1, &rule, Some(&mut subtrees));
+        let mut tree = Tree::new(prims, &mut merges);
         tree.optimize(300, REINSERT_ROUNDS);
         let (root, moved) = tree.finish();
         assert!(moved.iter().any(|&m| m) && !moved.iter().all(|&m| m));
-        collapse_moved(&leaves, &mut merges, &mut subtrees, &moved, root, &rule);
-        let n = leaves.len();
+        collapse_moved(prims, &mut merges, &mut subtrees, &moved, root, &rule);
+        let n = prims.len();
         // The full pass: every merge decided again, children first.
         fn decide(
             id: u32,
             n: usize,
-            leaves: &[Cluster],
+            leaves: CurveBoxes<'_>,
             merges: &[Merge],
             rule: &Collapse,
             out: &mut Vec<bool>,
         ) -> (f32, u32) {
             let Some(m) = (id as usize).checked_sub(n) else {
-                return (rule.intersection * leaves[id as usize].half_area(), 1);
+                return (rule.intersection * leaves.leaf(id).half_area(), 1);
             };
             let merge = merges[m];
             let (cl, pl) = decide(merge.left, n, leaves, merges, rule, out);
@@ -550,7 +530,7 @@ pub(super) mod tests {
             (cost, pl + pr)
         }
         let mut want = vec![false; merges.len()];
-        decide(root, n, &leaves, &merges, &rule, &mut want);
+        decide(root, n, prims, &merges, &rule, &mut want);
         let got: Vec<bool> = merges.iter().map(|m| m.right & COLLAPSED != 0).collect();
         assert_eq!(got, want);
     }
@@ -560,11 +540,11 @@ pub(super) mod tests {
         let boxes = vec![Aabb::from_point(Vec3A::ONE); 1024];
         for radius in [1, 2, 5] {
             let order: Vec<u32> = (0..1024).collect();
-            let (merges, leaves) = cluster(&boxes, &order, radius, &RULE, None);
+            let prims = CurveBoxes::new(&boxes, &order);
+            let merges = cluster(prims, radius, &RULE, None);
             assert_eq!(merges.len(), 1023);
             let config = BuildConfig::default();
-            let (nodes, primitive_indices) =
-                layout_within_depth(&leaves, &order, &merges, 2046, &config);
+            let (nodes, primitive_indices) = layout_within_depth(prims, &merges, 2046, &config);
             let bvh = crate::Bvh {
                 nodes,
                 primitive_indices,

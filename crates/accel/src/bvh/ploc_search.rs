@@ -1,7 +1,7 @@
 //! PLOC's nearest-neighbour search for a radius above 1: every cluster's best partner among
 //! the `radius` clusters on either side of it on the curve.
 
-use super::ploc::{Cluster, Io, Merger, fmax, fmin};
+use super::ploc::{Cluster, Clusters, Merger, fmax, fmin};
 
 /// Clusters handled together: their boxes are copied into arrays of one coordinate each (so
 /// that the area loop vectorises) and stay in L1 across the `radius` sweeps over them.
@@ -120,18 +120,18 @@ impl Search {
 
     /// Merges the mutual pairs, each into its left member's place, and compacts the rest;
     /// returns the number of clusters left.
-    pub fn merge_mutual<I: Io>(&self, io: &mut I, merger: &mut Merger<'_>) -> usize {
+    pub fn merge_mutual(&self, cur: &mut Clusters, merger: &mut Merger<'_>) -> usize {
         let mut to = 0;
-        for i in 0..io.clusters().len() {
+        for i in 0..cur.cl.len() {
             match self.neighbour(i) {
                 Some(j) if self.neighbour(j) == Some(i) => {
                     if j > i {
-                        io.merge(i, j, to, merger);
+                        cur.merge(i, j, to, merger);
                         to += 1;
                     }
                 }
                 _ => {
-                    io.keep(i, to);
+                    cur.keep(i, to);
                     to += 1;
                 }
             }

@@ -4,7 +4,7 @@
 use super::build::{BuildPrim, build_subtree};
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
-use super::ploc::Cluster;
+use super::ploc::{Cluster, CurveBoxes};
 use crate::Aabb;
 use glam::Vec3A;
 
@@ -90,14 +90,14 @@ pub(super) type SubtreeCost = (f32, u32);
 /// of reinsertion's fixed cost (a post-order and a pass over two million merges on a million
 /// triangles) for the few thousand paths a batch changes.
 pub(super) fn collapse_moved(
-    leaves: &[Cluster],
+    prims: CurveBoxes<'_>,
     merges: &mut [Merge],
     subtrees: &mut [SubtreeCost],
     moved: &[bool],
     root: u32,
     rule: &Collapse,
 ) {
-    let n = leaves.len();
+    let n = prims.len();
     let mut work = vec![(root, false)];
     while let Some((id, children_done)) = work.pop() {
         let Some(m) = (id as usize).checked_sub(n).filter(|&m| moved[m]) else {
@@ -109,7 +109,7 @@ pub(super) fn collapse_moved(
             continue;
         }
         let of = |c: u32| match (c as usize).checked_sub(n) {
-            None => (rule.intersection * leaves[c as usize].half_area(), 1),
+            None => (rule.intersection * prims.leaf(c).half_area(), 1),
             Some(c) => subtrees[c],
         };
         let ((cost_l, prims_l), (cost_r, prims_r)) = (of(l), of(r));
@@ -131,20 +131,19 @@ pub(super) fn collapse_moved(
 /// reinsertion, against 64), so the tree is laid out as it is first, and only a layout that
 /// went too deep is redone with the subtree heights that tell where to rebuild.
 pub(super) fn layout_within_depth(
-    leaves: &[Cluster],
-    order: &[u32],
+    prims: CurveBoxes<'_>,
     merges: &[Merge],
     root: u32,
     config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>) {
-    let (nodes, prims, deepest) = layout_tree(leaves, order, merges, root, None, config);
+    let (nodes, order, deepest) = layout_tree(prims, merges, root, None, config);
     if deepest <= config.max_depth {
-        return (nodes, prims);
+        return (nodes, order);
     }
-    let n = order.len();
+    let n = prims.len();
     let heights = subtree_heights(n, merges, &post_order(n, merges, root));
-    let (nodes, prims, _) = layout_tree(leaves, order, merges, root, Some(&heights), config);
-    (nodes, prims)
+    let (nodes, order, _) = layout_tree(prims, merges, root, Some(&heights), config);
+    (nodes, order)
 }
 
 /// Lays the clustered tree out top-down in the builder's format: pairs of children allocated
@@ -158,15 +157,14 @@ pub(super) fn layout_within_depth(
 /// SAH with the same stopping rules, from its depth (a bottom-up tree has no depth bound of
 /// its own, and cutting it into leaves at the limit could leave one leaf with most of the
 /// primitives).
-pub(super) fn layout_tree(
-    leaves: &[Cluster],
-    order: &[u32],
+fn layout_tree(
+    leaves: CurveBoxes<'_>,
     merges: &[Merge],
     root: u32,
     heights: Option<&[u32]>,
     config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>, u32) {
-    let n = order.len();
+    let n = leaves.len();
     let mut prims = Vec::with_capacity(n);
     if n == 0 {
         return (Vec::new(), prims, 0);
@@ -179,14 +177,14 @@ pub(super) fn layout_tree(
     let mut subtree = Vec::new();
     while let Some((slot, id, depth)) = work.pop() {
         let Some(m) = (id as usize).checked_sub(n).map(|m| &merges[m]) else {
-            let leaf = &leaves[id as usize];
+            let leaf = leaves.leaf(id);
             nodes[slot] = BvhNode {
                 min: leaf.lo,
                 first: prims.len() as u32,
                 max: leaf.hi,
                 count: 1,
             };
-            prims.push(order[id as usize]);
+            prims.push(leaves.id(id));
             deepest = deepest.max(depth);
             continue;
         };
@@ -213,9 +211,9 @@ pub(super) fn layout_tree(
             let mut build: Vec<BuildPrim> = subtree
                 .iter()
                 .map(|&s| {
-                    let c = &leaves[s as usize];
+                    let c = leaves.leaf(s);
                     let b = Aabb::new(Vec3A::from_array(c.lo), Vec3A::from_array(c.hi));
-                    BuildPrim::new(b, order[s as usize])
+                    BuildPrim::new(b, leaves.id(s))
                 })
                 .collect();
             let sub = build_subtree(&mut build, &top_down, prims.len(), depth);
@@ -240,7 +238,7 @@ pub(super) fn layout_tree(
         if collapsed {
             node.first = prims.len() as u32;
             node.count = subtree.len() as u32;
-            prims.extend(subtree.iter().map(|&s| order[s as usize]));
+            prims.extend(subtree.iter().map(|&s| leaves.id(s)));
             deepest = deepest.max(depth);
         } else {
             node.first = next_free as u32;

@@ -11,7 +11,7 @@
 //!
 //! It works on PLOC's merge records, before the tree is collapsed into leaves and laid out.
 
-use super::ploc::{Cluster, fmax, fmin};
+use super::ploc::{Cluster, CurveBoxes, GATHER_AHEAD, fmax, fmin};
 use super::ploc_tree::{COLLAPSED, Merge};
 
 /// No node (the root's parent).
@@ -44,7 +44,7 @@ impl Bounds {
 /// The tree PLOC built, in place: node ids below `leaves.len()` are primitives (in curve
 /// order), the others merges. Parents are kept for the search's walk to the root.
 pub(super) struct Tree<'a> {
-    leaves: &'a [Cluster],
+    leaves: CurveBoxes<'a>,
     merges: &'a mut [Merge],
     parent: Vec<u32>,
     /// Half the surface area of every node's box, kept up to date by the refits: choosing
@@ -59,16 +59,18 @@ pub(super) struct Tree<'a> {
 
 impl<'a> Tree<'a> {
     /// The tree of `merges` over `leaves` (at least two leaves; the last merge is the root).
-    pub fn new(leaves: &'a [Cluster], merges: &'a mut [Merge]) -> Self {
+    pub fn new(leaves: CurveBoxes<'a>, merges: &'a mut [Merge]) -> Self {
         let n = leaves.len();
         let mut parent = vec![NONE; n + merges.len()];
         for (m, merge) in merges.iter().enumerate() {
             parent[merge.left as usize] = (n + m) as u32;
             parent[(merge.right & !COLLAPSED) as usize] = (n + m) as u32;
         }
-        let area = leaves
-            .iter()
-            .map(Cluster::half_area)
+        let area = (0..n as u32)
+            .map(|slot| {
+                leaves.prefetch(slot + GATHER_AHEAD);
+                leaves.leaf(slot).half_area()
+            })
             .chain(
                 merges
                     .iter()
@@ -94,7 +96,7 @@ impl<'a> Tree<'a> {
     #[inline(always)]
     fn bounds(&self, id: u32) -> Bounds {
         match (id as usize).checked_sub(self.leaves.len()) {
-            None => Self::leaf_bounds(&self.leaves[id as usize]),
+            None => Self::leaf_bounds(&self.leaves.leaf(id)),
             Some(m) => {
                 let m = &self.merges[m];
                 Bounds { lo: m.lo, hi: m.hi }
@@ -329,9 +331,11 @@ mod tests {
     /// root left out, whatever the ties; and they come in increasing id.
     #[test]
     fn largest_takes_the_largest_boxes_in_id_order() {
-        let leaves = clusters_of(&coarse_boxes(1_000, 3)).cl;
+        let boxes = coarse_boxes(1_000, 3);
+        let leaves = clusters_of(&boxes).cl;
         let mut merges = paired_tree(&leaves);
-        let tree = Tree::new(&leaves, &mut merges);
+        let order: Vec<u32> = (0..boxes.len() as u32).collect();
+        let tree = Tree::new(CurveBoxes::new(&boxes, &order), &mut merges);
         let mut all: Vec<(u32, u32)> = (0..tree.area.len() as u32)
             .filter(|&id| id != tree.root)
             .map(|id| (tree.area[id as usize].to_bits(), id))
