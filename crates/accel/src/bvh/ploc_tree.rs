@@ -1,7 +1,7 @@
 //! The tree PLOC builds, as merge records: the stopping rules that collapse it into leaves, and
 //! its layout into the builder's node array.
 
-use super::build::{BuildPrim, build_subtree};
+use super::build::{BuildPrim, build_subtree, first_node_reservation};
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
 use super::ploc::{Cluster, CurveBoxes};
@@ -170,7 +170,7 @@ fn layout_tree(
         return (Vec::new(), prims, 0);
     }
     let mut deepest = 0;
-    let mut nodes = Vec::with_capacity(2 * n - 1);
+    let mut nodes = Vec::with_capacity(first_node_reservation(n));
     nodes.push(BvhNode::default());
     let mut work = vec![(0usize, root, 0u32)];
     let mut gather = Vec::new();
