@@ -204,21 +204,6 @@ pub(super) fn build_subtree(
     build_subtree_within(prims, bounds, config, prim_offset, depth)
 }
 
-/// How many nodes a builder first reserves for `n` primitives: `n`, which holds the tree of
-/// leaves of two primitives on average; trees of single-primitive leaves (up to `2n - 1`
-/// nodes) grow it once.
-///
-/// Why not the bound `2n - 1`: at a million primitives that is 64 MB, above the largest
-/// block glibc serves from its heap (32 MiB), so it was mapped afresh for every build. With
-/// this one reservation changed, a loop of 1M-triangle builds (each dropped before the next,
-/// as a benchmark or a rebuilding game does) took 6.2k page faults a PLOC build instead of
-/// 23.5k, the other buffers of the build now reused from the heap too; binned SAH builds
-/// faulted half as often. A page fault costs about 2 us on the benchmark VM. A first build in
-/// a fresh process gains nothing.
-pub(super) fn first_node_reservation(n: usize) -> usize {
-    n
-}
-
 /// [`build_subtree`] over non-empty `prims` whose bounds the caller already has.
 pub(super) fn build_subtree_within(
     prims: &mut [BuildPrim],
@@ -228,7 +213,7 @@ pub(super) fn build_subtree_within(
     depth: u32,
 ) -> Vec<BvhNode> {
     let n = prims.len();
-    let mut nodes = Vec::with_capacity(first_node_reservation(n));
+    let mut nodes = Vec::with_capacity(2 * n - 1);
     nodes.push(BvhNode::default());
     // An explicit stack, not recursion: a depth limit of 64 is the default, but a user may ask
     // for more, and the thread's stack must not be what decides.
