@@ -1,7 +1,7 @@
 //! The tree PLOC builds, as merge records: the stopping rules that collapse it into leaves, and
 //! its layout into the builder's node array.
 
-use super::build::{BuildPrim, build_subtree};
+use super::build::{BuildPrim, build_subtree, first_node_reservation};
 use super::config::{BuildConfig, SplitStrategy};
 use super::node::BvhNode;
 use super::ploc::{Cluster, CurveBoxes};
@@ -170,16 +170,7 @@ fn layout_tree(
         return (Vec::new(), prims, 0);
     }
     let mut deepest = 0;
-    // `n` nodes, enough for leaves of two primitives on average (trees of single-primitive
-    // leaves, up to `2n - 1` nodes, grow it once). Not the bound `2n - 1`: that is twice the
-    // size of every other buffer of the build, and glibc serves a block that large by mapping
-    // fresh pages, while blocks no larger than the build's other buffers come from its heap
-    // once those are freed. In a loop of 1M-triangle builds, each dropped before the next (as
-    // criterion or a game that rebuilds does), this one change took the page faults of a
-    // build from 23.5k to 6.2k, the other buffers now reused from the heap too, and the
-    // build from 119 to 78 ms; a page fault costs about 2 us on the benchmark VM. A first
-    // build in a fresh process gains nothing.
-    let mut nodes = Vec::with_capacity(n);
+    let mut nodes = Vec::with_capacity(first_node_reservation(n));
     nodes.push(BvhNode::default());
     let mut work = vec![(0usize, root, 0u32)];
     let mut gather = Vec::new();
