@@ -519,13 +519,7 @@ pub(super) mod tests {
             let merge = merges[m];
             let (cl, pl) = decide(merge.left, n, leaves, merges, rule, out);
             let (cr, pr) = decide(merge.right & !COLLAPSED, n, leaves, merges, rule, out);
-            let area = Cluster {
-                lo: merge.lo,
-                hi: merge.hi,
-                ..Cluster::default()
-            }
-            .half_area();
-            let (flag, cost) = rule.decide(pl + pr, area, cl, cr);
+            let (flag, cost) = rule.decide(pl + pr, merge.half_area(), cl, cr);
             out[m] = flag;
             (cost, pl + pr)
         }

@@ -19,6 +19,19 @@ pub(super) struct Merge {
     pub right: u32,
 }
 
+impl Merge {
+    /// Half the surface area of the merge's box.
+    #[inline(always)]
+    pub fn half_area(&self) -> f32 {
+        Cluster {
+            lo: self.lo,
+            hi: self.hi,
+            ..Cluster::default()
+        }
+        .half_area()
+    }
+}
+
 /// The top bit of [`Merge::right`]: the merge's subtree is laid out as one leaf. Node ids stay
 /// below it (PLOC builds top-down past a billion primitives).
 pub(super) const COLLAPSED: u32 = 1 << 31;
@@ -114,13 +127,7 @@ pub(super) fn collapse_moved(
         };
         let ((cost_l, prims_l), (cost_r, prims_r)) = (of(l), of(r));
         let merge = &mut merges[m];
-        let area = Cluster {
-            lo: merge.lo,
-            hi: merge.hi,
-            ..Cluster::default()
-        }
-        .half_area();
-        let (flag, cost) = rule.decide(prims_l + prims_r, area, cost_l, cost_r);
+        let (flag, cost) = rule.decide(prims_l + prims_r, merge.half_area(), cost_l, cost_r);
         merge.right = r | if flag { COLLAPSED } else { 0 };
         subtrees[m] = (cost, prims_l + prims_r);
     }
