@@ -204,19 +204,30 @@ pub(super) fn build_subtree(
     build_subtree_within(prims, bounds, config, prim_offset, depth)
 }
 
-/// How many nodes a builder first reserves for `n` primitives: `n`, which holds the tree of
-/// leaves of two primitives on average; trees of smaller leaves (up to `2n - 1` nodes) grow it.
+/// How many nodes a builder first reserves for `n` primitives under `config`. Where leaves
+/// come out small (at most one primitive, or a primitive test costed above a node visit, as in
+/// the plugin's entity tree), the tree has close to `2n - 1` nodes and that bound is reserved;
+/// otherwise `n`, which holds leaves of two primitives on average, and the rare tree of smaller
+/// leaves grows it.
 ///
-/// Why not the bound `2n - 1`: that is twice the size of every other buffer of a build, and
-/// glibc serves a block that large by mapping fresh pages, while blocks no larger than the
-/// build's other buffers come from its heap once those are freed. In a loop of 1M-triangle
-/// PLOC builds, each dropped before the next (as criterion, or a game that rebuilds, does),
-/// reserving `n` took a build's page faults from 23.5k to 6.2k and its time from 119 to 78
-/// ms; a page fault costs about 2 us on the benchmark VM. It also matters across builders:
-/// with the top-down builders alone still reserving `2n - 1`, PLOC builds later in the same
-/// process ran at 165 ms instead of 131. A first build in a fresh process gains nothing.
-pub(super) fn first_node_reservation(n: usize) -> usize {
-    n
+/// Why not always the bound: `2n - 1` nodes is twice the size of every other buffer of a
+/// build, and glibc serves a block that large by mapping fresh pages, while blocks no larger
+/// than the build's other buffers come from its heap once those are freed. In a loop of
+/// 1M-triangle PLOC builds, each dropped before the next (as criterion, or a game that
+/// rebuilds, does), reserving `n` took a build's page faults from 23.5k to 6.2k and its time
+/// from 119 to 78 ms; a page fault costs about 2 us on the benchmark VM. It also matters
+/// across builders: with the top-down builders alone still reserving `2n - 1`, PLOC builds
+/// later in the same process ran at 165 ms instead of 131. Why not always `n`: a tree that
+/// needs about `2n` grows it by a copy into a block mapped afresh, which made the plugin's
+/// entity tree (one or two entities a leaf) build 20-30% slower. A first build in a fresh
+/// process gains nothing either way.
+pub(super) fn first_node_reservation(n: usize, config: &BuildConfig) -> usize {
+    let small_leaves = config.max_leaf_size <= 1 || config.sah.intersection > config.sah.traversal;
+    if small_leaves {
+        (2 * n).saturating_sub(1)
+    } else {
+        n
+    }
 }
 
 /// [`build_subtree`] over non-empty `prims` whose bounds the caller already has.
@@ -228,7 +239,7 @@ pub(super) fn build_subtree_within(
     depth: u32,
 ) -> Vec<BvhNode> {
     let n = prims.len();
-    let mut nodes = Vec::with_capacity(first_node_reservation(n));
+    let mut nodes = Vec::with_capacity(first_node_reservation(n, config));
     nodes.push(BvhNode::default());
     // An explicit stack, not recursion: a depth limit of 64 is the default, but a user may ask
     // for more, and the thread's stack must not be what decides.
