@@ -42,23 +42,6 @@ pub(super) fn split(
     let sums_finite =
         node_bounds.min.abs().cmple(half_max).all() && node_bounds.max.abs().cmple(half_max).all();
     let args = (prims, node_bounds, centroid_bounds, bins, config, may_stop);
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
-        return unsafe { split_avx2(args, sums_finite) };
-    }
-    split_sized(args, sums_finite)
-}
-
-/// [`split_sized`] compiled with AVX2: the VEX encoding's three-operand forms spare the
-/// register copies of the binning loop (2-4% off a build, alternated). The results are the
-/// same bits: the same IEEE operations, with no fused multiply-add.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn split_avx2(args: SplitArgs<'_>, sums_finite: bool) -> SplitOutcome {
     split_sized(args, sums_finite)
 }
 
