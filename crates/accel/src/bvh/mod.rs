@@ -30,6 +30,7 @@ mod sphere_tree;
 mod split_binned;
 mod split_exhaustive;
 mod split_object;
+mod split_sorted;
 mod split_sweep;
 pub mod stats;
 pub mod validate;
