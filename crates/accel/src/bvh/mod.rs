@@ -30,6 +30,7 @@ mod sphere_tree;
 mod split_binned;
 mod split_exhaustive;
 mod split_object;
+#[cfg(target_arch = "x86_64")]
 mod split_sorted;
 mod split_sweep;
 pub mod stats;

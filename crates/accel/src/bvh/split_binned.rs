@@ -3,7 +3,9 @@
 use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid, leaf_is_cheaper};
 use super::config::BuildConfig;
 use super::partition::partition;
-use super::{split_exhaustive, split_sorted};
+use super::split_exhaustive;
+#[cfg(target_arch = "x86_64")]
+use super::split_sorted;
 use crate::Aabb;
 use glam::{BVec3A, Vec3A};
 
@@ -38,7 +40,8 @@ pub(super) fn split(
     let sums_finite =
         node_bounds.min.abs().cmple(half_max).all() && node_bounds.max.abs().cmple(half_max).all();
     // Small nodes: every plane, in the lanes of one register (see `split_sorted`).
-    if sums_finite && prims.len() <= split_sorted::MAX_PRIMS {
+    #[cfg(target_arch = "x86_64")]
+    if sums_finite && prims.len() <= split_sorted::MAX_PRIMS && split_sorted::available() {
         return split_sorted::split(prims, node_bounds, config, may_stop);
     }
     // Only as many bins as there are primitives can be non-empty. Most nodes of a tree are

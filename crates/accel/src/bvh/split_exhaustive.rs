@@ -6,7 +6,7 @@
 //! build: about 65 instead of 240 cycles a node of three, 175 instead of 335 for four), and
 //! finds the optimal split rather than the best of the bins' planes. From five primitives on
 //! (15 partitions, the unions of 31 subsets) the bins were cheaper again; nodes of five to
-//! eight now take every plane instead (`split_sorted`).
+//! eight now take every plane instead where the CPU has AVX2 (`split_sorted`).
 
 use super::build::{BuildPrim, NodeBounds, SplitOutcome, leaf_is_cheaper};
 use super::config::BuildConfig;

@@ -10,8 +10,12 @@
 //! build (`BENCHMARKS.md`). The split found is also the best plane of all, where the bins see
 //! only theirs (SAH cost 500.47 -> 499.26 on the bench's million triangles).
 //!
-//! [`split`] gives the same decision on every CPU: the portable [`sweep_axis_portable`] is
-//! the definition, and the AVX2 `best_plane_avx2` is tested against it.
+//! Only where the CPU has AVX2 ([`available`]); elsewhere nodes of 5 to 8 primitives keep
+//! their bins. The portable version of the same sweep (insertion sorts and a plane at a time)
+//! measured 10-15% slower for a whole build than the bins, so it is only the definition the
+//! AVX2 code is tested against (`sweep_axis_portable`). Trees built on a CPU without AVX2 can
+//! therefore differ from those built with it; both are valid, and the queries' results are
+//! the same.
 
 use super::build::{BuildPrim, SplitOutcome, leaf_is_cheaper};
 use super::config::BuildConfig;
@@ -32,11 +36,17 @@ struct AxisPlane {
     order: [u8; MAX_PRIMS],
 }
 
+/// Whether [`split`] may be called: the CPU has AVX2.
+#[inline]
+pub(super) fn available() -> bool {
+    std::is_x86_feature_detected!("avx2")
+}
+
 /// Splits `prims` ([`MIN_PRIMS`] to [`MAX_PRIMS`] of them, every corner at most half the
 /// largest float, so that `lo + hi` is finite) at the cheapest plane of any axis, or makes a
 /// leaf where that costs no more (`may_stop`). Ties go to the lower axis, then to fewer
 /// primitives on the left. No plane separates equal centroids, so the decision does not
-/// depend on the order of equal ones.
+/// depend on the order of equal ones. Only where [`available`].
 pub(super) fn split(
     prims: &mut [BuildPrim],
     node_bounds: &Aabb,
@@ -45,7 +55,9 @@ pub(super) fn split(
 ) -> SplitOutcome {
     let n = prims.len();
     debug_assert!((MIN_PRIMS..=MAX_PRIMS).contains(&n));
-    let best = best_plane(prims);
+    assert!(available(), "split_sorted::split needs AVX2");
+    // SAFETY: the CPU has AVX2.
+    let best = unsafe { best_plane_avx2(prims) };
     if best.cost == f32::INFINITY {
         return SplitOutcome::NoPositionalSplit;
     }
@@ -59,19 +71,9 @@ pub(super) fn split(
     SplitOutcome::Split(best.left)
 }
 
-/// The cheapest plane of any axis ([`best_plane_portable`]), on AVX2 where the CPU has it.
-#[inline]
-fn best_plane(prims: &[BuildPrim]) -> AxisPlane {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
-        return unsafe { best_plane_avx2(prims) };
-    }
-    best_plane_portable(prims)
-}
-
 /// The cheapest plane of the three axes' ([`sweep_axis_portable`]), the lower axis on ties:
 /// the definition the AVX2 sweep must match bit for bit.
+#[cfg(test)]
 fn best_plane_portable(prims: &[BuildPrim]) -> AxisPlane {
     let n = prims.len();
     let records: [BuildPrim; MAX_PRIMS] = core::array::from_fn(|i| prims[i.min(n - 1)]);
@@ -87,6 +89,7 @@ fn best_plane_portable(prims: &[BuildPrim]) -> AxisPlane {
 
 /// The best plane on `axis` among the first `n` records, one plane at a time: the definition
 /// the AVX2 sweep must match bit for bit.
+#[cfg(test)]
 fn sweep_axis_portable(records: &[BuildPrim; MAX_PRIMS], n: usize, axis: usize) -> AxisPlane {
     let key = |i: u8| records[i as usize].corner_sum(axis);
     let mut order: [u8; MAX_PRIMS] = core::array::from_fn(|i| i as u8);
@@ -117,10 +120,8 @@ fn sweep_axis_portable(records: &[BuildPrim; MAX_PRIMS], n: usize, axis: usize) 
     best
 }
 
-#[cfg(target_arch = "x86_64")]
 use avx2::best_plane_avx2;
 
-#[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{AxisPlane, BuildPrim, MAX_PRIMS};
     use core::arch::x86_64::{
@@ -448,10 +449,9 @@ mod tests {
 
     /// The AVX2 search gives the portable one's cost to the bit, the same left count, and the
     /// same left set (the order among equal centroids may differ).
-    #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx2_search_matches_the_portable_one() {
-        if !std::is_x86_feature_detected!("avx2") {
+        if !available() {
             return;
         }
         for (trial, boxes) in nodes().iter().enumerate() {
@@ -485,6 +485,9 @@ mod tests {
     /// when the leaf costs no more (`may_stop`).
     #[test]
     fn splits_at_the_cheapest_plane_of_any_axis() {
+        if !available() {
+            return;
+        }
         let config = BuildConfig::default();
         for (trial, boxes) in nodes().iter().enumerate() {
             let n = boxes.len();
