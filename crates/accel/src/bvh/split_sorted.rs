@@ -11,8 +11,8 @@
 //! only theirs (SAH cost 500.47 -> 499.26 on the bench's million triangles).
 //!
 //! Only where the CPU has AVX2 ([`available`]); elsewhere nodes of 5 to 8 primitives keep
-//! their bins. The portable version of the same sweep (insertion sorts and a plane at a time)
-//! measured 10-15% slower for a whole build than the bins, so it is only the definition the
+//! their bins. The portable version of the same sweep (a sort, then a plane at a time)
+//! measured 10-20% slower for a whole build than the bins, so it is only the definition the
 //! AVX2 code is tested against (`sweep_axis_portable`). Trees built on a CPU without AVX2 can
 //! therefore differ from those built with it; both are valid, and the queries' results are
 //! the same.
