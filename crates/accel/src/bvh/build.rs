@@ -353,6 +353,52 @@ fn choose_split(
     }
 }
 
+/// Build records for `boxes`, primitive `i` for box `i` (for tests).
+#[cfg(test)]
+pub(super) fn records_of(boxes: &[Aabb]) -> Vec<BuildPrim> {
+    boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| BuildPrim::new(*b, i as u32))
+        .collect()
+}
+
+/// Checks shared by the small-node splits' tests: the leaf decision against `leaf_wins` (the
+/// SAH's verdict for the cheapest split), and that every primitive `0..n` is still there once.
+/// Returns the split's `mid`, or `None` for a (correct) leaf.
+#[cfg(test)]
+pub(super) fn check_small_split(
+    trial: usize,
+    outcome: &SplitOutcome,
+    prims: &[BuildPrim],
+    may_stop: bool,
+    leaf_wins: bool,
+) -> Option<usize> {
+    let mid = match outcome {
+        SplitOutcome::Split(mid) | SplitOutcome::SplitWithBounds(mid, _) => *mid,
+        SplitOutcome::Leaf => {
+            assert!(
+                may_stop && leaf_wins,
+                "trial {trial}: a leaf where a split pays"
+            );
+            return None;
+        }
+        SplitOutcome::NoPositionalSplit => panic!("trial {trial}: no split of finite boxes"),
+    };
+    assert!(
+        !(may_stop && leaf_wins),
+        "trial {trial}: a split where a leaf pays"
+    );
+    assert!(mid > 0 && mid < prims.len(), "trial {trial}: an empty side");
+    let mut ids: Vec<u32> = prims.iter().map(BuildPrim::index).collect();
+    ids.sort_unstable();
+    assert!(
+        ids.iter().copied().eq(0..prims.len() as u32),
+        "trial {trial}: ids lost"
+    );
+    Some(mid)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

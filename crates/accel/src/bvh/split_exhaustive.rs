@@ -93,6 +93,7 @@ fn split_n<const N: usize, const S: usize>(
 
 #[cfg(test)]
 mod tests {
+    use super::super::build::{check_small_split, records_of};
     use super::*;
     use glam::Vec3A;
 
@@ -139,37 +140,16 @@ mod tests {
                 .fold(f32::INFINITY, f32::min);
             let node = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
             for may_stop in [false, true] {
-                let mut prims: Vec<BuildPrim> = boxes
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| BuildPrim::new(*b, i as u32))
-                    .collect();
+                let mut prims = records_of(&boxes);
                 let outcome = split(&mut prims, &node, &config, may_stop);
-                let leaf_wins = config.sah.intersection * n as f32
-                    <= config.sah.traversal
-                        + config.sah.intersection * brute / node.half_area().max(f32::MIN_POSITIVE);
-                let (mid, children) = match outcome {
-                    SplitOutcome::SplitWithBounds(mid, children) => (mid, children),
-                    SplitOutcome::Leaf => {
-                        assert!(
-                            may_stop && leaf_wins,
-                            "trial {trial}: a leaf where a split pays"
-                        );
-                        continue;
-                    }
-                    _ => panic!("trial {trial}: no split of finite boxes"),
+                let leaf_wins = leaf_is_cheaper(&config, n, brute, &node);
+                let Some(mid) = check_small_split(trial, &outcome, &prims, may_stop, leaf_wins)
+                else {
+                    continue;
                 };
-                assert!(
-                    !(may_stop && leaf_wins),
-                    "trial {trial}: a split where a leaf pays"
-                );
-                assert!(mid > 0 && mid < n);
-                let mut ids: Vec<u32> = prims.iter().map(BuildPrim::index).collect();
-                ids.sort_unstable();
-                assert!(
-                    ids.iter().copied().eq(0..n as u32),
-                    "trial {trial}: ids lost"
-                );
+                let SplitOutcome::SplitWithBounds(_, children) = outcome else {
+                    panic!("trial {trial}: a split without the children's bounds");
+                };
                 let left_ids: Vec<usize> =
                     prims[..mid].iter().map(|p| p.index() as usize).collect();
                 let cost = division_cost(|i| left_ids.contains(&i), &boxes);

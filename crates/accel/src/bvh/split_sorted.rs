@@ -360,7 +360,7 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::build::NodeBounds;
+    use crate::bvh::build::{NodeBounds, check_small_split, records_of};
     use glam::Vec3A;
 
     /// Nodes of 5 to 8 boxes: random, with copies (equal centroids, ties between planes),
@@ -496,34 +496,13 @@ mod tests {
                 .fold(f32::INFINITY, f32::min);
             let node = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
             for may_stop in [false, true] {
-                let mut prims: Vec<BuildPrim> = boxes
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| BuildPrim::new(*b, i as u32))
-                    .collect();
+                let mut prims = records_of(boxes);
                 let outcome = split(&mut prims, &node, &config, may_stop);
                 let leaf_wins = leaf_is_cheaper(&config, n, best, &node);
-                let mid = match outcome {
-                    SplitOutcome::Split(mid) => mid,
-                    SplitOutcome::Leaf => {
-                        assert!(
-                            may_stop && leaf_wins,
-                            "trial {trial}: a leaf where a split pays"
-                        );
-                        continue;
-                    }
-                    _ => panic!("trial {trial}: no split of finite boxes"),
+                let Some(mid) = check_small_split(trial, &outcome, &prims, may_stop, leaf_wins)
+                else {
+                    continue;
                 };
-                assert!(
-                    !(may_stop && leaf_wins),
-                    "trial {trial}: a split where a leaf pays"
-                );
-                let mut ids: Vec<u32> = prims.iter().map(BuildPrim::index).collect();
-                ids.sort_unstable();
-                assert!(
-                    ids.iter().copied().eq(0..n as u32),
-                    "trial {trial}: ids lost"
-                );
                 let [l, r] = [&prims[..mid], &prims[mid..]].map(NodeBounds::of);
                 let cost = l.node.half_area() * mid as f32 + r.node.half_area() * (n - mid) as f32;
                 assert_eq!(cost, best, "trial {trial}: not the cheapest plane");
