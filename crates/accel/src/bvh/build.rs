@@ -243,9 +243,27 @@ pub(super) fn build_subtree_within(
     nodes.push(BvhNode::default());
     // An explicit stack, not recursion: a depth limit of 64 is the default, but a user may ask
     // for more, and the thread's stack must not be what decides.
-    let mut work = vec![(0usize, 0usize, n, depth, bounds)];
+    let mut work: Vec<Pending> = Vec::new();
     let mut loose = Vec::new();
-    while let Some((node, start, end, depth, bounds)) = work.pop() {
+    // The left child is split next, straight from `current`; only the right one waits on the
+    // stack. Why: popping the entry just pushed read it back from memory through stores of
+    // other sizes and offsets, which the CPU cannot forward to the loads; the stalls were a
+    // third of the driver's time in a million-triangle build.
+    let mut current = Pending {
+        bounds,
+        node: 0,
+        start: 0,
+        end: n,
+        depth,
+    };
+    loop {
+        let Pending {
+            bounds,
+            node,
+            start,
+            end,
+            depth,
+        } = current;
         nodes[node].set_aabb(&bounds.node);
         if !bounds.tight {
             loose.push(node);
@@ -258,17 +276,44 @@ pub(super) fn build_subtree_within(
                 nodes.push(BvhNode::default());
                 nodes[node].first = left as u32;
                 nodes[node].count = 0;
-                work.push((left + 1, start + mid, end, depth + 1, right_bounds));
-                work.push((left, start, start + mid, depth + 1, left_bounds));
+                work.push(Pending {
+                    bounds: right_bounds,
+                    node: left + 1,
+                    start: start + mid,
+                    end,
+                    depth: depth + 1,
+                });
+                current = Pending {
+                    bounds: left_bounds,
+                    node: left,
+                    start,
+                    end: start + mid,
+                    depth: depth + 1,
+                };
             }
             None => {
                 nodes[node].first = (prim_offset + start) as u32;
                 nodes[node].count = (end - start) as u32;
+                match work.pop() {
+                    Some(next) => current = next,
+                    None => break,
+                }
             }
         }
     }
     tighten(&mut nodes, &loose, prims, prim_offset);
     nodes
+}
+
+/// A node of the top-down build waiting for its split: its bounds, its slot in the node
+/// array, its primitives' range and its depth.
+#[derive(Clone, Copy)]
+struct Pending {
+    bounds: NodeBounds,
+    node: usize,
+    start: usize,
+    end: usize,
+    depth: u32,
 }
 
 /// SAH termination: whether a leaf of `count` primitives costs no more than the split whose
