@@ -364,18 +364,24 @@ mod tests {
     use glam::Vec3A;
 
     /// Nodes of 5 to 8 boxes: random, with copies (equal centroids, ties between planes),
-    /// flat, and far from the origin.
+    /// flat, far from the origin, and huge (corners near a quarter of the largest float, where
+    /// every area overflows to infinity and no plane has a finite cost).
     fn nodes() -> Vec<Vec<Aabb>> {
         let mut next = crate::test_floats(0x2f1c_9a3b_77d4_e015);
         (0..4000)
             .map(|trial| {
                 let n = MIN_PRIMS + trial % (MAX_PRIMS - MIN_PRIMS + 1);
                 let offset = if trial % 7 == 0 { 1.0e6 } else { 0.0 };
+                let scale = if trial % 13 == 0 && offset == 0.0 {
+                    8.0e36
+                } else {
+                    1.0
+                };
                 let mut boxes: Vec<Aabb> = (0..n)
                     .map(|_| {
-                        let c = Vec3A::new(next(), next(), next()) * 10.0 + offset;
+                        let c = (Vec3A::new(next(), next(), next()) * 10.0 + offset) * scale;
                         let flat = if trial % 3 == 0 { 0.0 } else { 1.0 };
-                        let h = Vec3A::new(next(), next() * flat, next());
+                        let h = Vec3A::new(next(), next() * flat, next()) * scale;
                         Aabb::new(c - h, c + h)
                     })
                     .collect();
@@ -482,13 +488,15 @@ mod tests {
     }
 
     /// The split takes the cheapest axis, keeps every primitive once, and makes a leaf exactly
-    /// when the leaf costs no more (`may_stop`).
+    /// when the leaf costs no more (`may_stop`); where no plane has a finite cost, it finds
+    /// no split by position (as the bins do), and does not panic.
     #[test]
     fn splits_at_the_cheapest_plane_of_any_axis() {
         if !available() {
             return;
         }
         let config = BuildConfig::default();
+        let mut infinite = 0;
         for (trial, boxes) in nodes().iter().enumerate() {
             let n = boxes.len();
             let best = (0..3)
@@ -498,6 +506,14 @@ mod tests {
             for may_stop in [false, true] {
                 let mut prims = records_of(boxes);
                 let outcome = split(&mut prims, &node, &config, may_stop);
+                if best == f32::INFINITY {
+                    infinite += 1;
+                    assert!(
+                        matches!(outcome, SplitOutcome::NoPositionalSplit),
+                        "trial {trial}: a split by an infinite cost"
+                    );
+                    continue;
+                }
                 let leaf_wins = leaf_is_cheaper(&config, n, best, &node);
                 let Some(mid) = check_small_split(trial, &outcome, &prims, may_stop, leaf_wins)
                 else {
@@ -508,5 +524,6 @@ mod tests {
                 assert_eq!(cost, best, "trial {trial}: not the cheapest plane");
             }
         }
+        assert!(infinite > 0, "no node without a finite cost was tried");
     }
 }
