@@ -408,6 +408,22 @@ pub(super) fn records_of(boxes: &[Aabb]) -> Vec<BuildPrim> {
         .collect()
 }
 
+/// The SAH's leaf verdict written out for the tests, apart from [`leaf_is_cheaper`] (which
+/// the splits under test call): a leaf of `count` primitives wins when its cost is no more
+/// than a traversal step plus the children's intersections, weighted by their areas
+/// (`split_area_cost`) over the node's.
+#[cfg(test)]
+pub(super) fn leaf_wins_by_sah(
+    config: &BuildConfig,
+    count: usize,
+    split_area_cost: f32,
+    node: &Aabb,
+) -> bool {
+    config.sah.intersection * count as f32
+        <= config.sah.traversal
+            + config.sah.intersection * split_area_cost / node.half_area().max(f32::MIN_POSITIVE)
+}
+
 /// Checks shared by the small-node splits' tests: the leaf decision against `leaf_wins` (the
 /// SAH's verdict for the cheapest split), and that every primitive `0..n` is still there once.
 /// Returns the split's `mid`, or `None` for a (correct) leaf.

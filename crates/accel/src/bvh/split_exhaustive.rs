@@ -93,7 +93,7 @@ fn split_n<const N: usize, const S: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::build::{check_small_split, records_of};
+    use super::super::build::{check_small_split, leaf_wins_by_sah, records_of};
     use super::*;
     use glam::Vec3A;
 
@@ -142,7 +142,7 @@ mod tests {
             for may_stop in [false, true] {
                 let mut prims = records_of(&boxes);
                 let outcome = split(&mut prims, &node, &config, may_stop);
-                let leaf_wins = leaf_is_cheaper(&config, n, brute, &node);
+                let leaf_wins = leaf_wins_by_sah(&config, n, brute, &node);
                 let Some(mid) = check_small_split(trial, &outcome, &prims, may_stop, leaf_wins)
                 else {
                     continue;

@@ -360,7 +360,7 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::build::{NodeBounds, check_small_split, records_of};
+    use crate::bvh::build::{NodeBounds, check_small_split, leaf_wins_by_sah, records_of};
     use glam::Vec3A;
 
     /// Nodes of 5 to 8 boxes: random, with copies (equal centroids, ties between planes),
@@ -514,7 +514,7 @@ mod tests {
                     );
                     continue;
                 }
-                let leaf_wins = leaf_is_cheaper(&config, n, best, &node);
+                let leaf_wins = leaf_wins_by_sah(&config, n, best, &node);
                 let Some(mid) = check_small_split(trial, &outcome, &prims, may_stop, leaf_wins)
                 else {
                     continue;
