@@ -21,6 +21,12 @@
 //! The environment variable `MESH_CONFIGS` (comma-separated `leaf:traversal:intersection`
 //! SAH settings, or `ploc` / `ploc-fastest`) adds `MeshBvh`s built other ways.
 //!
+//! tinybvh (C++) joins every round when `TINYBVH_PEER` names the binary that
+//! `benches/peers/tinybvh.sh` builds, traced in the layouts `TINYBVH_LAYOUTS` lists
+//! (comma-separated; `bvh8_cpu` unless set; also `bvh4_cpu`, `bvh8_cpu_hq`):
+//! `TINYBVH_PEER=$(crates/accel/benches/peers/tinybvh.sh) cargo run --release -p accel
+//! --example ray_timing`.
+//!
 //! The machine is shared: each round runs every contender once, and the summary is the median
 //! over rounds of each contender's ratio to obvhs *in the same round*.
 
@@ -205,19 +211,39 @@ fn main() {
         mesh.memory_bytes() as f64 / tris.len() as f64
     );
     let primary = primary_rays();
-    let sets = [
-        RaySet::new("primary", &primary, false),
-        RaySet::new("shadow", &shadow_rays(&primary, &mesh), true),
-        RaySet::new("diffuse", &diffuse_rays(&primary, &mesh), false),
-        RaySet::new(
-            "incoherent",
-            &common::incoherent_rays(RAYS, common::TRI_EXTENT, 3)
-                .into_iter()
-                .map(|(o, d)| (o, d, f32::INFINITY))
-                .collect::<Vec<_>>(),
-            false,
-        ),
+    let shadow = shadow_rays(&primary, &mesh);
+    let diffuse = diffuse_rays(&primary, &mesh);
+    let incoherent: Vec<_> = common::incoherent_rays(RAYS, common::TRI_EXTENT, 3)
+        .into_iter()
+        .map(|(o, d)| (o, d, f32::INFINITY))
+        .collect();
+    let kinds = [
+        ("primary", &primary, false),
+        ("shadow", &shadow, true),
+        ("diffuse", &diffuse, false),
+        ("incoherent", &incoherent, false),
     ];
+    let sets = kinds.map(|(name, rays, any_hit)| RaySet::new(name, rays, any_hit));
+    // tinybvh in a child process, when `TINYBVH_PEER` names it (see `benches/peers/tinybvh.sh`).
+    let mut tinybvh = common::tinybvh::TinyBvh::from_env(&tris);
+    let layouts: Vec<String> = std::env::var("TINYBVH_LAYOUTS")
+        .unwrap_or_else(|_| "bvh8_cpu".into())
+        .split_terminator(',')
+        .map(str::to_owned)
+        .collect();
+    let peer_sets: Vec<_> = match &mut tinybvh {
+        Some(peer) => {
+            for layout in &layouts {
+                let seconds = peer.layout(layout);
+                println!("{} {layout}: built in {seconds:.2} s", peer.version);
+            }
+            kinds
+                .iter()
+                .map(|&(name, rays, any_hit)| peer.rays(name, rays, any_hit))
+                .collect()
+        }
+        None => Vec::new(),
+    };
 
     let ot: Vec<obvhs::triangle::Triangle> = tris.iter().map(common::peers::to_obvhs_tri).collect();
     let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(
@@ -288,7 +314,7 @@ fn main() {
     ));
     contenders.retain(|(name, _, _)| name.contains(&only) || name == reference);
 
-    for set in &sets {
+    for (k, set) in sets.iter().enumerate() {
         let runs: Vec<&(String, Tracer, bool)> = contenders
             .iter()
             .filter(|c| !c.2 || set.name == "incoherent")
@@ -316,10 +342,32 @@ fn main() {
                 );
             }
         }
+        if let Some(peer) = &mut tinybvh {
+            for layout in &layouts {
+                let theirs = peer.hits(peer_sets[k], 2_000, layout);
+                let mismatches = (0..2_000)
+                    .filter(|&i| match (theirs[i], obvhs_trace(set, i)) {
+                        (Some(a), Some(b)) => (a - b).abs() > 1e-4 * a.max(1.0),
+                        (a, b) => a.is_some() != b.is_some(),
+                    })
+                    .count();
+                assert!(
+                    mismatches <= 2,
+                    "tinybvh {layout} disagrees with obvhs on {mismatches} of 2000 {} rays",
+                    set.name
+                );
+            }
+        }
         let mut samples: Vec<Vec<f64>> = vec![Vec::new(); runs.len()];
+        let mut peer_samples: Vec<Vec<f64>> = vec![Vec::new(); layouts.len()];
         for _ in 0..rounds {
             for ((_, trace, _), s) in runs.iter().zip(&mut samples) {
                 s.push(rays_per_second(trace, set));
+            }
+            if let Some(peer) = &mut tinybvh {
+                for (layout, s) in layouts.iter().zip(&mut peer_samples) {
+                    s.push(peer.trace(peer_sets[k], layout));
+                }
             }
         }
         let reference_samples = samples.last().expect("obvhs is always run").clone();
@@ -331,7 +379,18 @@ fn main() {
             set.name,
             100.0 * hits as f64 / RAYS as f64
         );
-        for ((name, _, _), s) in runs.iter().zip(&samples) {
+        let peer_rows = tinybvh.as_ref().map_or(Vec::new(), |peer| {
+            layouts
+                .iter()
+                .map(|l| format!("{} {l}", peer.version))
+                .collect()
+        });
+        let rows = runs
+            .iter()
+            .map(|(name, _, _)| name.clone())
+            .chain(peer_rows)
+            .zip(samples.iter().chain(&peer_samples));
+        for (name, s) in rows {
             let ratio = median(
                 s.iter()
                     .zip(&reference_samples)

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod peers;
+pub mod tinybvh;
 
 use accel::{Aabb, Frustum, Triangle};
 use glam::{Mat4, Quat, Vec3, Vec3A};
