@@ -38,6 +38,10 @@ fi
 # entries; nothing else in the header changes.
 mkdir -p "$out/include"
 sed -e 's/\(nodeStack\|distStack\)\[256\]/\1[8192]/' "$header/tiny_bvh.h" >"$out/include/tiny_bvh.h.new"
+if [ "$(grep -c 'Stack\[8192\]' "$out/include/tiny_bvh.h.new")" -ne 6 ]; then
+  echo "tinybvh.sh: expected six 256-entry traversal stacks in tiny_bvh.h $version" >&2
+  exit 1
+fi
 if ! cmp -s "$out/include/tiny_bvh.h.new" "$out/include/tiny_bvh.h"; then
   mv "$out/include/tiny_bvh.h.new" "$out/include/tiny_bvh.h"
 else
