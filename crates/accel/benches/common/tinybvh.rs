@@ -104,6 +104,12 @@ impl TinyBvh {
         (v[0], v[1])
     }
 
+    /// [`build_avx`](Self::build_avx) into one tree kept in the peer, whose buffers each
+    /// rebuild reuses (a game's rebuild every frame): seconds.
+    pub fn rebuild_avx(&mut self) -> f64 {
+        self.numbers("rebuild")[0]
+    }
+
     /// Builds and keeps the ray layout `name` (`bvh8_cpu`, `bvh4_cpu`, `bvh8_cpu_hq`: the
     /// 8-wide layout over tinybvh's default build, 4-wide, 8-wide over its SBVH); seconds.
     pub fn layout(&mut self, name: &str) -> f64 {

@@ -7,7 +7,8 @@
 // then three (x, y, z, 0) f32 vertices per triangle. Commands, one per line, each answered
 // with one line:
 //   build            one single-threaded BVH::BuildAVX (binned SAH, tinybvh's default build)
-//                    from the triangles: "<seconds> <tinybvh SAH cost>"
+//                    from the triangles into a new BVH: "<seconds> <tinybvh SAH cost>"
+//   rebuild          the same into one BVH kept between calls, whose buffers are reused
 //   layout NAME      builds and keeps the ray layout NAME (bvh8_cpu, bvh4_cpu, bvh8_cpu_hq):
 //                    "<seconds>"
 //   rays FILE ANY    loads rays (u32 count, then ox oy oz dx dy dz t_max pad as f32), traced
@@ -84,6 +85,7 @@ int main( int argc, char** argv )
 	memcpy( aligned, v4, (size_t)triCount * 3 * sizeof( bvhvec4 ) );
 	std::vector<RaySet> sets;
 	std::map<std::string, Layout> layouts;
+	BVH kept;
 	printf( "ready tinybvh %d.%d.%d\n", TINY_BVH_VERSION_MAJOR, TINY_BVH_VERSION_MINOR, TINY_BVH_VERSION_SUB );
 	fflush( stdout );
 	std::string line;
@@ -93,9 +95,10 @@ int main( int argc, char** argv )
 		std::string cmd;
 		in >> cmd;
 		if (cmd == "quit") break;
-		if (cmd == "build")
+		if (cmd == "build" || cmd == "rebuild")
 		{
-			BVH bvh;
+			BVH fresh;
+			BVH& bvh = cmd == "build" ? fresh : kept;
 			const double t0 = now();
 			bvh.BuildAVX( aligned, triCount );
 			const double t1 = now();
