@@ -192,6 +192,38 @@ fn mesh_tracer<'a>(mesh: MeshBvh) -> Tracer<'a> {
     })
 }
 
+/// How many rays of each set every contender's answers are checked on.
+const CHECKED_RAYS: usize = 2_000;
+
+/// No timing of wrong answers: `answer(i)` must agree with obvhs on the first rays of `set`
+/// (the closest `t` within 1e-4 relative, or blocked / not blocked). Möller-Trumbore and the
+/// watertight test may disagree on a ray through a shared edge, so up to two differences are
+/// allowed, and printed.
+fn check_against_obvhs(
+    name: &str,
+    set: &RaySet,
+    answer: impl Fn(usize) -> Option<f32>,
+    obvhs: &Tracer<'_>,
+) {
+    let mismatches = (0..CHECKED_RAYS)
+        .filter(|&i| match (answer(i), obvhs(set, i)) {
+            (Some(a), Some(b)) => (a - b).abs() > 1e-4 * a.max(1.0),
+            (a, b) => a.is_some() != b.is_some(),
+        })
+        .count();
+    assert!(
+        mismatches <= 2,
+        "{name} disagrees with obvhs on {mismatches} of {CHECKED_RAYS} {} rays",
+        set.name
+    );
+    if mismatches > 0 {
+        println!(
+            "  ({name}: {mismatches} of {CHECKED_RAYS} {} rays differ from obvhs)",
+            set.name
+        );
+    }
+}
+
 fn main() {
     let rounds: usize = std::env::args()
         .nth(1)
@@ -319,42 +351,18 @@ fn main() {
             .iter()
             .filter(|c| !c.2 || set.name == "incoherent")
             .collect();
-        // No timing of wrong answers: every contender must agree with obvhs (the closest `t`
-        // within 1e-4 relative, or blocked / not blocked). Möller-Trumbore and the watertight
-        // test may disagree on a ray through a shared edge, so a 0.1% allowance is printed.
         let obvhs_trace = &runs.last().expect("obvhs is always run").1;
         for (name, trace, _) in &runs {
-            let mismatches = (0..2_000)
-                .filter(|&i| match (trace(set, i), obvhs_trace(set, i)) {
-                    (Some(a), Some(b)) => (a - b).abs() > 1e-4 * a.max(1.0),
-                    (a, b) => a.is_some() != b.is_some(),
-                })
-                .count();
-            assert!(
-                mismatches <= 2,
-                "{name} disagrees with obvhs on {mismatches} of 2000 {} rays",
-                set.name
-            );
-            if mismatches > 0 {
-                println!(
-                    "  ({name}: {mismatches} of 2000 {} rays differ from obvhs)",
-                    set.name
-                );
-            }
+            check_against_obvhs(name, set, |i| trace(set, i), obvhs_trace);
         }
         if let Some(peer) = &mut tinybvh {
             for layout in &layouts {
-                let theirs = peer.hits(peer_sets[k], 2_000, layout);
-                let mismatches = (0..2_000)
-                    .filter(|&i| match (theirs[i], obvhs_trace(set, i)) {
-                        (Some(a), Some(b)) => (a - b).abs() > 1e-4 * a.max(1.0),
-                        (a, b) => a.is_some() != b.is_some(),
-                    })
-                    .count();
-                assert!(
-                    mismatches <= 2,
-                    "tinybvh {layout} disagrees with obvhs on {mismatches} of 2000 {} rays",
-                    set.name
+                let theirs = peer.hits(peer_sets[k], CHECKED_RAYS, layout);
+                check_against_obvhs(
+                    &format!("tinybvh {layout}"),
+                    set,
+                    |i| theirs[i],
+                    obvhs_trace,
                 );
             }
         }
