@@ -14,12 +14,14 @@
 //!
 //! `cargo run --release -p accel --example ray_timing [rounds] [only]`
 //!
-//! Contenders: `MeshBvh` (16-wide, leaf triangles in 4-wide packets) and obvhs CWBVH (medium
-//! preset, its Möller-Trumbore test, triangles in leaf order) on every kind; on incoherent
+//! Contenders: `MeshBvh` (`MeshBvh::new`: 16-wide, over pre-split triangles, leaf triangles
+//! in 4-wide packets), `MeshBvh(whole)` (the same build over whole triangles) and obvhs CWBVH
+//! (medium preset, its Möller-Trumbore test, triangles in leaf order) on every kind; on incoherent
 //! rays also the 8-wide, quantized 8-wide and 4-wide `WideBvh` over the triangle boxes with the
 //! single watertight test in the callback. `only` keeps the contenders whose name contains it.
 //! The environment variable `MESH_CONFIGS` (comma-separated `leaf:traversal:intersection`
-//! SAH settings, or `ploc` / `ploc-fastest`) adds `MeshBvh`s built other ways.
+//! SAH settings, `ploc` / `ploc-fastest`, or `split=B`: the default build over triangles
+//! pre-split with budget `B`) adds `MeshBvh`s built other ways.
 //!
 //! tinybvh (C++) joins every round when `TINYBVH_PEER` names the binary that
 //! `benches/peers/tinybvh.sh` builds, traced in the layouts `TINYBVH_LAYOUTS` lists
@@ -237,11 +239,23 @@ fn main() {
         .flat_map(|t| t.vertices.map(glam::Vec3::from))
         .collect();
     let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+    let started = Instant::now();
     let mesh = MeshBvh::new(&vertices, &indices).expect("a triangle list");
-    println!(
-        "MeshBvh: {:.1} bytes/triangle",
-        mesh.memory_bytes() as f64 / tris.len() as f64
-    );
+    let split_build = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let whole = MeshBvh::with_config(&vertices, &indices, &MeshBvh::default_config(tris.len()))
+        .expect("a triangle list");
+    let whole_build = started.elapsed().as_secs_f64();
+    for (name, m, seconds) in [
+        ("MeshBvh", &mesh, split_build),
+        ("MeshBvh(whole)", &whole, whole_build),
+    ] {
+        println!(
+            "{name}: built in {seconds:.2} s, {:.1} bytes/triangle, {} triangles in leaves",
+            m.memory_bytes() as f64 / tris.len() as f64,
+            m.leaf_triangle_count()
+        );
+    }
     let primary = primary_rays();
     let shadow = shadow_rays(&primary, &mesh);
     let diffuse = diffuse_rays(&primary, &mesh);
@@ -289,12 +303,22 @@ fn main() {
         .map(|&p| ot[p as usize])
         .collect();
     // (name, tracer, incoherent rays only)
-    let mut contenders: Vec<(String, Tracer, bool)> =
-        vec![("MeshBvh".into(), mesh_tracer(mesh), false)];
+    let mut contenders: Vec<(String, Tracer, bool)> = vec![
+        ("MeshBvh".into(), mesh_tracer(mesh), false),
+        ("MeshBvh(whole)".into(), mesh_tracer(whole), false),
+    ];
     for c in std::env::var("MESH_CONFIGS")
         .unwrap_or_default()
         .split_terminator(',')
     {
+        if let Some(budget) = c.strip_prefix("split=") {
+            let budget: f32 = budget.parse().expect("a split budget");
+            let config = MeshBvh::default_config(tris.len());
+            let mesh = MeshBvh::with_splits(&vertices, &indices, &config, budget)
+                .expect("a triangle list");
+            contenders.push((format!("MeshBvh({c})"), mesh_tracer(mesh), false));
+            continue;
+        }
         let config = match c {
             "ploc" => BuildConfig::with_split(SplitStrategy::PLOC),
             "ploc-fastest" => BuildConfig::with_split(SplitStrategy::PLOC_FASTEST),

@@ -73,63 +73,166 @@ fn random_ray(rng: &mut Rng, extent: f32) -> Ray {
     Ray::new(o, target - o)
 }
 
+/// Long slivers slanted across the mesh's box among small triangles: the triangles whose
+/// boxes waste the most, the ones pre-splitting cuts.
+fn slivers(rng: &mut Rng, n: usize) -> TestMesh {
+    let mut mesh = soup(rng, n);
+    for _ in 0..n / 20 {
+        let (a, b) = (rng.vec3(-6.0, 6.0), rng.vec3(-6.0, 6.0));
+        let c = a + rng.vec3(-0.3, 0.3);
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices.extend([Vec3::from(a), b.into(), c.into()]);
+        mesh.indices.extend([first, first + 1, first + 2]);
+    }
+    mesh
+}
+
+/// How a mesh's box queries may answer: exactly the triangles whose boxes overlap the query
+/// (a tree over whole triangles), or at least every triangle that touches it and only ones
+/// whose boxes overlap (over pre-split triangles, whose pieces' boxes are what the tree holds).
+#[derive(Clone, Copy, PartialEq)]
+enum Overlap {
+    Exact,
+    Touching,
+}
+
+/// Every query of `bvh` against brute force over `mesh`'s triangles, on random rays and boxes.
+fn check_mesh_queries(mesh: &TestMesh, bvh: &MeshBvh, rng: &mut Rng, overlap: Overlap, what: &str) {
+    bvh.validate().unwrap();
+    assert_eq!(bvh.triangle_count(), mesh.indices.len() / 3, "{what}");
+    let mut all = Vec::new();
+    for _ in 0..2000 {
+        let ray = random_ray(rng, 8.0);
+        for bf in [Backfaces::Include, Backfaces::Cull] {
+            let want = brute_mesh(mesh, &ray, bf);
+            let got = bvh.cast_ray(&ray, bf);
+            assert_eq!(got.map(|h| h.t), want.first().map(|w| w.0), "{what}");
+            if let Some(h) = got {
+                // The reported triangle is one at that distance, with consistent data.
+                assert!(want.iter().any(|w| w.0 == h.t && w.1 == h.triangle));
+                let s: f32 = h.barycentrics.iter().sum();
+                assert!((s - 1.0).abs() < 1e-5 && h.barycentrics.iter().all(|&b| b >= -1e-6));
+                assert!((h.geometric_normal.length() - 1.0).abs() < 1e-4);
+            }
+            assert_eq!(bvh.cast_ray_any(&ray, bf), !want.is_empty(), "{what}");
+            all.clear();
+            bvh.cast_ray_all(&ray, bf, &mut all);
+            let got_all: Vec<(f32, u32)> = all.iter().map(|h| (h.t, h.triangle)).collect();
+            assert_eq!(got_all, want, "{what}");
+        }
+    }
+    for _ in 0..200 {
+        let c = rng.vec3(-8.0, 8.0);
+        let query = Aabb::new(c, c + rng.vec3(0.0, 4.0));
+        let mut got = Vec::new();
+        bvh.for_each_triangle_overlapping(&query, |t| got.push(t));
+        let visited = got.len();
+        got.sort_unstable();
+        got.dedup();
+        assert_eq!(got.len(), visited, "{what}: a triangle visited twice");
+        let corners = |t: u32| {
+            [0, 1, 2].map(|k| Vec3A::from(mesh.vertices[mesh.indices[3 * t as usize + k] as usize]))
+        };
+        let boxes_overlapping: Vec<u32> = (0..mesh.indices.len() as u32 / 3)
+            .filter(|&t| Aabb::from_points(corners(t)).intersects_aabb(&query))
+            .collect();
+        match overlap {
+            Overlap::Exact => assert_eq!(got, boxes_overlapping, "{what}"),
+            Overlap::Touching => {
+                assert!(got.iter().all(|t| boxes_overlapping.contains(t)), "{what}");
+                // Triangles with a corner, an edge's middle or the centroid in the box
+                // certainly touch it.
+                for t in (0..mesh.indices.len() as u32 / 3).filter(|&t| {
+                    let [a, b, c] = corners(t);
+                    [
+                        a,
+                        b,
+                        c,
+                        (a + b) * 0.5,
+                        (b + c) * 0.5,
+                        (c + a) * 0.5,
+                        (a + b + c) / 3.0,
+                    ]
+                    .iter()
+                    .any(|&p| query.contains_point(p))
+                }) {
+                    assert!(got.contains(&t), "{what}: triangle {t} touches the box");
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn mesh_bvh_matches_brute_force() {
     let mut rng = Rng::new(31);
     let meshes = [soup(&mut rng, 2000), sphere(24, 32), soup(&mut rng, 3)];
-    // `MeshBvh::new` picks binned SAH for meshes this small; PLOC (its choice for large
-    // meshes) is checked on the same meshes.
-    let builds = meshes.iter().enumerate().flat_map(|(mi, mesh)| {
-        [
-            MeshBvh::new(&mesh.vertices, &mesh.indices),
-            MeshBvh::with_config(
-                &mesh.vertices,
-                &mesh.indices,
-                &BuildConfig::with_split(SplitStrategy::PLOC),
-            ),
-        ]
-        .map(move |bvh| (mi, mesh, bvh.unwrap()))
-    });
-    for (mi, mesh, bvh) in builds {
-        bvh.validate().unwrap();
-        assert_eq!(bvh.triangle_count(), mesh.indices.len() / 3);
-        let mut all = Vec::new();
-        for _ in 0..2000 {
-            let ray = random_ray(&mut rng, 8.0);
-            for bf in [Backfaces::Include, Backfaces::Cull] {
-                let want = brute_mesh(mesh, &ray, bf);
-                let got = bvh.cast_ray(&ray, bf);
-                assert_eq!(got.map(|h| h.t), want.first().map(|w| w.0), "mesh {mi}");
-                if let Some(h) = got {
-                    // The reported triangle is one at that distance, with consistent data.
-                    assert!(want.iter().any(|w| w.0 == h.t && w.1 == h.triangle));
-                    let s: f32 = h.barycentrics.iter().sum();
-                    assert!((s - 1.0).abs() < 1e-5 && h.barycentrics.iter().all(|&b| b >= -1e-6));
-                    assert!((h.geometric_normal.length() - 1.0).abs() < 1e-4);
-                }
-                assert_eq!(bvh.cast_ray_any(&ray, bf), !want.is_empty());
-                all.clear();
-                bvh.cast_ray_all(&ray, bf, &mut all);
-                let got_all: Vec<(f32, u32)> = all.iter().map(|h| (h.t, h.triangle)).collect();
-                assert_eq!(got_all, want);
-            }
+    // Whole triangles, with the binned SAH that `MeshBvh::default_config` picks for meshes
+    // this small and the PLOC it picks for large ones; `MeshBvh::new`'s pre-split build is
+    // checked on the same meshes.
+    for (mi, mesh) in meshes.iter().enumerate() {
+        for (name, config) in [
+            ("binned", BuildConfig::default()),
+            ("PLOC", BuildConfig::with_split(SplitStrategy::PLOC)),
+        ] {
+            let bvh = MeshBvh::with_config(&mesh.vertices, &mesh.indices, &config).unwrap();
+            check_mesh_queries(
+                mesh,
+                &bvh,
+                &mut rng,
+                Overlap::Exact,
+                &format!("mesh {mi} {name}"),
+            );
         }
-        // Box overlap: the triangles whose boxes overlap, as a set.
-        for _ in 0..200 {
-            let c = rng.vec3(-8.0, 8.0);
-            let query = Aabb::new(c, c + rng.vec3(0.0, 4.0));
-            let mut got = Vec::new();
-            bvh.for_each_triangle_overlapping(&query, |t| got.push(t));
-            got.sort_unstable();
-            let want: Vec<u32> = (0..mesh.indices.len() as u32 / 3)
-                .filter(|&t| {
-                    let corners =
-                        [0, 1, 2].map(|k| mesh.vertices[mesh.indices[3 * t as usize + k] as usize]);
-                    Aabb::from_points(corners).intersects_aabb(&query)
-                })
-                .collect();
-            assert_eq!(got, want, "mesh {mi}");
+        let bvh = MeshBvh::new(&mesh.vertices, &mesh.indices).unwrap();
+        check_mesh_queries(
+            mesh,
+            &bvh,
+            &mut rng,
+            Overlap::Touching,
+            &format!("mesh {mi} new"),
+        );
+    }
+}
+
+/// Pre-split builds answer as whole-triangle ones: each hit once, every triangle found,
+/// before and after a refit moves the vertices (which bounds whole triangles again).
+#[test]
+fn presplit_meshes_match_brute_force() {
+    let mut rng = Rng::new(77);
+    let mut mesh = slivers(&mut rng, 1500);
+    for (name, config, budget) in [
+        ("binned 0.3", BuildConfig::default(), 0.3),
+        ("binned 2.0", BuildConfig::default(), 2.0),
+        (
+            "PLOC 0.3",
+            BuildConfig::with_split(SplitStrategy::PLOC),
+            0.3,
+        ),
+        (
+            "leaves of 1",
+            BuildConfig {
+                max_leaf_size: 1,
+                ..BuildConfig::default()
+            },
+            0.5,
+        ),
+    ] {
+        let mut bvh = MeshBvh::with_splits(&mesh.vertices, &mesh.indices, &config, budget).unwrap();
+        // The slivers were cut, and pieces of one sliver sit in several leaves.
+        assert!(bvh.leaf_triangle_count() > bvh.triangle_count(), "{name}");
+        check_mesh_queries(&mesh, &bvh, &mut rng, Overlap::Touching, name);
+        for v in &mut mesh.vertices {
+            *v += Vec3::from(rng.vec3(-0.2, 0.2));
         }
+        bvh.refit(&mesh.vertices).unwrap();
+        check_mesh_queries(
+            &mesh,
+            &bvh,
+            &mut rng,
+            Overlap::Touching,
+            &format!("{name}, refit"),
+        );
     }
 }
 

@@ -29,6 +29,9 @@ pub enum ValidationError {
     MissingPrimitive(u32),
     /// A node is reachable twice (the "tree" has a cycle or shared subtree).
     NodeReachedTwice(u32),
+    /// A primitive built as pieces (a pre-split triangle's) has a piece's box that its own
+    /// box does not contain.
+    PieceOutsidePrimitive(u32),
     /// A node has a NaN box.
     InvalidBounds(u32),
     /// An empty leaf.

@@ -8,6 +8,7 @@ mod ray_sphere;
 mod sphere;
 mod triangle;
 mod triangle4;
+mod triangle_clip;
 
 pub use aabb::Aabb;
 pub use frustum::{Containment, Frustum, Plane};
@@ -15,4 +16,5 @@ pub use ray::Ray;
 pub use ray_aabb::SLAB_WIDENING;
 pub use sphere::Sphere;
 pub use triangle::{Backfaces, Triangle, TriangleHit, WatertightRay, intersect_triangle_f64};
+pub use triangle_clip::clipped_triangle_bounds;
 pub use triangle4::{Triangle4, Triangle4Hits};

@@ -7,6 +7,8 @@
 mod hit;
 mod mesh_bvh;
 mod packets;
+mod piece_leaves;
+mod presplit;
 mod scene;
 
 pub use hit::MeshHit;

@@ -1,5 +1,6 @@
 //! A mesh's triangles in leaf order, four to a SIMD packet.
 
+use super::presplit::SplitReferences;
 use crate::bvh::Bvh;
 use crate::{Aabb, Triangle4};
 use glam::{Vec3, Vec3A};
@@ -24,35 +25,78 @@ impl LeafPackets {
     /// Packs the leaves of `bvh` (built over the mesh's triangles) and rewrites the tree to
     /// name packets instead of triangles: a leaf of `n` triangles becomes `ceil(n / 4)`
     /// packets, in the tree's primitive order.
-    pub fn pack(bvh: &mut Bvh, vertices: &[Vec3], indices: &[u32]) -> Self {
-        let mut leaves: Vec<usize> = (0..bvh.nodes.len())
-            .filter(|&n| bvh.nodes[n].is_leaf())
-            .collect();
+    ///
+    /// With `references` the tree was built over pieces of triangles
+    /// ([`super::presplit`]): a leaf's pieces are packed as their triangles, each once per
+    /// leaf, and the returned boxes are each packet's part of the leaf (the union of its
+    /// pieces), which the tree's boxes bound instead of the packets' whole triangles.
+    pub fn pack(
+        bvh: &mut Bvh,
+        vertices: &[Vec3],
+        indices: &[u32],
+        references: Option<&SplitReferences>,
+    ) -> (Self, Vec<Aabb>) {
+        // The leaves reachable from the root: `merge_piece_leaves` leaves the nodes under a
+        // merged leaf in the array.
+        let mut leaves = Vec::new();
+        let mut walk = if bvh.nodes.is_empty() {
+            vec![]
+        } else {
+            vec![0usize]
+        };
+        while let Some(n) = walk.pop() {
+            let node = &bvh.nodes[n];
+            if node.is_leaf() {
+                leaves.push(n);
+            } else {
+                walk.extend([node.first as usize, node.first as usize + 1]);
+            }
+        }
         leaves.sort_unstable_by_key(|&n| bvh.nodes[n].first);
         let mut out = Self::default();
+        let mut piece_boxes = Vec::new();
+        let mut run: Vec<(u32, Aabb)> = Vec::new();
         for n in leaves {
             let node = &mut bvh.nodes[n];
-            let run =
-                &bvh.primitive_indices[node.first as usize..(node.first + node.count) as usize];
+            run.clear();
+            for &r in
+                &bvh.primitive_indices[node.first as usize..(node.first + node.count) as usize]
+            {
+                let Some(refs) = references else {
+                    run.push((r, Aabb::EMPTY));
+                    continue;
+                };
+                let (t, piece) = (refs.triangles[r as usize], refs.boxes[r as usize]);
+                // Two pieces of one triangle in one leaf: test the triangle once.
+                match run.iter_mut().find(|(seen, _)| *seen == t) {
+                    Some((_, b)) => *b = b.union(&piece),
+                    None => run.push((t, piece)),
+                }
+            }
             node.first = out.packets.len() as u32;
             node.count = run.len().div_ceil(4) as u32;
             for group in run.chunks(4) {
                 let mut packet = Triangle4::default();
                 let mut ids = [NO_TRIANGLE; 4];
                 let mut lane_indices = [[0u32; 3]; 4];
-                for (lane, &t) in group.iter().enumerate() {
+                let mut pieces = Aabb::EMPTY;
+                for (lane, &(t, piece)) in group.iter().enumerate() {
                     let tri = [0, 1, 2].map(|k| indices[3 * t as usize + k]);
                     packet.set(lane, tri.map(|i| Vec3A::from(vertices[i as usize])));
                     ids[lane] = t;
                     lane_indices[lane] = tri;
+                    pieces = pieces.union(&piece);
                 }
                 out.packets.push(packet);
                 out.triangles.push(ids);
                 out.vertex_indices.push(lane_indices);
+                if references.is_some() {
+                    piece_boxes.push(pieces);
+                }
             }
         }
         bvh.primitive_indices = (0..out.packets.len() as u32).collect();
-        out
+        (out, piece_boxes)
     }
 
     /// The corners of lane `lane` of packet `packet`.

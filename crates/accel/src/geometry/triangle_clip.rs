@@ -1,0 +1,159 @@
+//! The box of the part of a triangle inside a box: what spatial splits and triangle
+//! pre-splitting bound their pieces by.
+
+use crate::Aabb;
+use glam::Vec3A;
+
+/// Most vertices a triangle clipped by a box's six planes can have (three, plus one per
+/// plane).
+const MAX_CLIPPED_VERTICES: usize = 9;
+
+/// A box around the part of the triangle `corners` that lies inside `region`, never smaller
+/// than that part (so no ray that hits the part misses the box), and [`Aabb::EMPTY`] when the
+/// triangle stays clear of `region`.
+///
+/// The triangle is clipped against the region's six planes (Sutherland and Hodgman 1974) and
+/// the clipped polygon bounded. Points computed on an edge are off by a few ulps, which could
+/// shrink the box past a piece of the triangle, or lose a sliver that just touches the region;
+/// so the polygon is clipped against the region grown by a margin far above that error, its
+/// box is grown by the same margin, and the result is cut back to `region` (which holds the
+/// exact part by definition) and to the triangle's own box.
+///
+/// ```
+/// use accel::{Aabb, clipped_triangle_bounds};
+/// use glam::Vec3A;
+/// let corners = [Vec3A::ZERO, Vec3A::new(4.0, 0.0, 0.0), Vec3A::new(0.0, 4.0, 0.0)];
+/// // The left half of the region holds a trapezoid of the triangle: x in 0..2, y in 0..4.
+/// let left = Aabb::new(Vec3A::splat(-10.0), Vec3A::new(2.0, 10.0, 10.0));
+/// let b = clipped_triangle_bounds(&corners, &left);
+/// assert!(b.contains_aabb(&Aabb::new(Vec3A::ZERO, Vec3A::new(2.0, 4.0, 0.0))));
+/// assert!(b.max.x <= 2.0 && b.max.y <= 4.0);
+/// // Above y = 3 only a small triangle is left, x in 0..1.
+/// let top = Aabb::new(Vec3A::new(-10.0, 3.0, -10.0), Vec3A::splat(10.0));
+/// assert!(clipped_triangle_bounds(&corners, &top).max.x < 1.001);
+/// ```
+pub fn clipped_triangle_bounds(corners: &[Vec3A; 3], region: &Aabb) -> Aabb {
+    let triangle = Aabb::from_points(*corners);
+    let clip = triangle.intersection(region);
+    if !clip.is_finite() || clip.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let margin = clip_margin(&triangle);
+    let grown = clip.expanded(Vec3A::splat(margin));
+    let mut polygon = [Vec3A::ZERO; MAX_CLIPPED_VERTICES];
+    polygon[..3].copy_from_slice(corners);
+    let mut len = 3;
+    for axis in 0..3 {
+        len = clip_polygon(&mut polygon, len, axis, grown.min[axis], 1.0);
+        len = clip_polygon(&mut polygon, len, axis, grown.max[axis], -1.0);
+        if len == 0 {
+            return Aabb::EMPTY;
+        }
+    }
+    Aabb::from_points(polygon[..len].iter().copied())
+        .expanded(Vec3A::splat(margin))
+        .intersection(&clip)
+}
+
+/// How far a clipped point may be from where it should be, with a wide allowance: 2^-16 of
+/// the triangle's largest coordinate, some 128 ulps. Clipping by up to six planes compounds a
+/// few roundings per cut, far less than that.
+fn clip_margin(triangle: &Aabb) -> f32 {
+    let largest = triangle.min.abs().max(triangle.max.abs()).max_element();
+    (largest * (1.0 / 65_536.0)).max(f32::MIN_POSITIVE)
+}
+
+/// Keeps the part of the convex polygon `polygon[..len]` on the side of the plane
+/// `point[axis] = plane` that `side` points to (+1: above, -1: below); returns the new length.
+fn clip_polygon(
+    polygon: &mut [Vec3A; MAX_CLIPPED_VERTICES],
+    len: usize,
+    axis: usize,
+    plane: f32,
+    side: f32,
+) -> usize {
+    let inside = |p: Vec3A| (p[axis] - plane) * side >= 0.0;
+    let mut out = [Vec3A::ZERO; MAX_CLIPPED_VERTICES];
+    let mut out_len = 0;
+    for i in 0..len {
+        let (a, b) = (polygon[i], polygon[(i + 1) % len]);
+        if inside(a) {
+            out[out_len] = a;
+            out_len += 1;
+        }
+        if inside(a) != inside(b) && out_len < MAX_CLIPPED_VERTICES {
+            // The crossing, computed from the inside end so that an edge cut twice by the
+            // same plane (once in each direction) gives the same point both times.
+            let (from, to) = if inside(a) { (a, b) } else { (b, a) };
+            let t = (plane - from[axis]) / (to[axis] - from[axis]);
+            let mut p = from + (to - from) * t;
+            p[axis] = plane;
+            out[out_len] = p;
+            out_len += 1;
+        }
+    }
+    *polygon = out;
+    out_len
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn point(extent: f32) -> impl Strategy<Value = Vec3A> {
+        [-extent..extent, -extent..extent, -extent..extent].prop_map(Vec3A::from_array)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 3000, rng_seed: proptest::test_runner::RngSeed::Fixed(31), ..ProptestConfig::default() })]
+
+        /// Every point of the triangle inside the region lies in the clipped box, and the
+        /// box stays inside both the region and the triangle's box; far from the origin too.
+        #[test]
+        fn clipped_box_holds_every_point_of_the_part_inside(
+            corners in [point(10.0), point(10.0), point(10.0)],
+            region in (point(12.0), point(12.0)).prop_map(|(a, b)| Aabb::new(a.min(b), a.max(b))),
+            offset in prop_oneof![Just(0.0f32), Just(1.0e5f32), Just(-3.0e6f32)],
+            samples in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0), 64),
+        ) {
+            let shift = Vec3A::splat(offset);
+            let corners = corners.map(|c| c + shift);
+            let region = Aabb::new(region.min + shift, region.max + shift);
+            let clipped = clipped_triangle_bounds(&corners, &region);
+            let triangle = Aabb::from_points(corners);
+            if !clipped.is_empty() {
+                prop_assert!(region.contains_aabb(&clipped));
+                prop_assert!(triangle.contains_aabb(&clipped));
+            }
+            // Points on the triangle (the corners, edge points and inside points), and each
+            // one's check against the region done exactly as the box test does it.
+            let [a, b, c] = corners;
+            let mut points: Vec<Vec3A> = vec![a, b, c];
+            for (u, v) in samples {
+                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                points.push(a + (b - a) * u + (c - a) * v);
+                points.push(a + (b - a) * u);
+            }
+            // Rounding can put a computed point an ulp outside the triangle's box; those are
+            // not on the triangle.
+            for p in points {
+                if region.contains_point(p) && triangle.contains_point(p) {
+                    prop_assert!(clipped.contains_point(p), "{p} in the region, not in {clipped:?}");
+                }
+            }
+        }
+    }
+
+    /// A region the triangle only touches at a corner still gets that corner's box, and one it
+    /// misses gets nothing.
+    #[test]
+    fn touching_and_missing_regions() {
+        let corners = [Vec3A::ZERO, Vec3A::X, Vec3A::Y];
+        let touching = Aabb::new(Vec3A::new(1.0, -1.0, -1.0), Vec3A::new(2.0, 1.0, 1.0));
+        assert!(clipped_triangle_bounds(&corners, &touching).contains_point(Vec3A::X));
+        // The boxes overlap (x and y in 0.6..1), the triangle (x + y <= 1) does not.
+        let missing = Aabb::new(Vec3A::new(0.6, 0.6, -1.0), Vec3A::splat(2.0));
+        assert!(clipped_triangle_bounds(&corners, &missing).is_empty());
+    }
+}
