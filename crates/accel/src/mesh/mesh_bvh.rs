@@ -126,7 +126,7 @@ impl MeshBvh {
     ///
     /// Measured on the 1M-triangle benchmark scene (bunnies among large slanted triangles,
     /// `examples/ray_timing.rs`): against whole triangles, primary rays 1.7x, diffuse 1.5x,
-    /// incoherent 1.35x and shadow rays 1.15x as fast, for a build about 2.1x as long
+    /// incoherent 1.3x and shadow rays 1.15x as fast, for a build about 2.1x as long
     /// (`BENCHMARKS.md`); budgets from 0.2 to 0.4 trace alike. A mesh of like triangles (a
     /// tessellated sphere, the bunny) has none worth cutting and builds as before, less a
     /// pass over its triangles (27 ms of 300 for a million).
