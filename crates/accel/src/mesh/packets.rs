@@ -1,5 +1,6 @@
 //! A mesh's triangles in leaf order, four to a SIMD packet.
 
+use super::piece_leaves::reachable_leaves;
 use super::presplit::SplitReferences;
 use crate::bvh::Bvh;
 use crate::{Aabb, Triangle4};
@@ -36,23 +37,7 @@ impl LeafPackets {
         indices: &[u32],
         references: Option<&SplitReferences>,
     ) -> (Self, Vec<Aabb>) {
-        // The leaves reachable from the root: `merge_piece_leaves` leaves the nodes under a
-        // merged leaf in the array.
-        let mut leaves = Vec::new();
-        let mut walk = if bvh.nodes.is_empty() {
-            vec![]
-        } else {
-            vec![0usize]
-        };
-        while let Some(n) = walk.pop() {
-            let node = &bvh.nodes[n];
-            if node.is_leaf() {
-                leaves.push(n);
-            } else {
-                walk.extend([node.first as usize, node.first as usize + 1]);
-            }
-        }
-        leaves.sort_unstable_by_key(|&n| bvh.nodes[n].first);
+        let leaves = reachable_leaves(bvh);
         let mut out = Self::default();
         let mut piece_boxes = Vec::new();
         let mut run: Vec<(u32, Aabb)> = Vec::new();

@@ -49,8 +49,7 @@ pub(super) fn merge_piece_leaves(bvh: &mut Bvh, triangle_of: &[u32], config: &Bu
         let as_node = config.sah.traversal * area + cost[left] + cost[right];
         cost[i] = match triangles {
             Some(n) if n <= config.max_leaf_size as usize && as_leaf(n) <= as_node => {
-                // The children stay in the array, unreachable; every later pass walks from
-                // the root.
+                // The children stay in the array, unreachable (see `reachable_leaves`).
                 bvh.nodes[i].first = start as u32;
                 bvh.nodes[i].count = (end - start) as u32;
                 as_leaf(n)
@@ -60,24 +59,39 @@ pub(super) fn merge_piece_leaves(bvh: &mut Bvh, triangle_of: &[u32], config: &Bu
     }
 }
 
+/// The leaves reachable from the root, in primitive order. After [`merge_piece_leaves`] the
+/// nodes under a merged leaf are still in the array, so leaves are found by walking, not by
+/// scanning it.
+pub(super) fn reachable_leaves(bvh: &Bvh) -> Vec<usize> {
+    let mut leaves = Vec::new();
+    let mut walk = if bvh.nodes.is_empty() {
+        vec![]
+    } else {
+        vec![0usize]
+    };
+    while let Some(n) = walk.pop() {
+        let node = &bvh.nodes[n];
+        if node.is_leaf() {
+            leaves.push(n);
+        } else {
+            walk.extend([node.first as usize, node.first as usize + 1]);
+        }
+    }
+    leaves.sort_unstable_by_key(|&n| bvh.nodes[n].first);
+    leaves
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::{Aabb, SplitStrategy};
     use glam::Vec3A;
 
-    fn reachable_leaves(bvh: &Bvh) -> Vec<[u32; 2]> {
-        let mut leaves = Vec::new();
-        let mut walk = vec![0usize];
-        while let Some(n) = walk.pop() {
-            let node = &bvh.nodes[n];
-            if node.is_leaf() {
-                leaves.push([node.first, node.count]);
-            } else {
-                walk.extend([node.first as usize, node.first as usize + 1]);
-            }
-        }
-        leaves
+    fn leaf_ranges(bvh: &Bvh) -> Vec<[u32; 2]> {
+        reachable_leaves(bvh)
+            .into_iter()
+            .map(|n| [bvh.nodes[n].first, bvh.nodes[n].count])
+            .collect()
     }
 
     /// Two triangles, each cut into four pieces in a row: built with leaves of one reference,
@@ -99,10 +113,9 @@ mod tests {
                 ..BuildConfig::default()
             };
             let mut bvh = Bvh::build(&boxes, &config);
-            assert_eq!(reachable_leaves(&bvh).len(), 8);
+            assert_eq!(leaf_ranges(&bvh).len(), 8);
             merge_piece_leaves(&mut bvh, &triangle_of, &config);
-            let mut leaves = reachable_leaves(&bvh);
-            leaves.sort_unstable();
+            let leaves = leaf_ranges(&bvh);
             assert_eq!(leaves, vec![[0, 4], [4, 4]], "{split:?}");
             for [first, count] in leaves {
                 let run = &bvh.primitive_indices[first as usize..(first + count) as usize];

@@ -165,8 +165,8 @@ fn budget_scale(candidates: &[(u32, f32)], extra: u64) -> f32 {
     let mut low = (extra as f64 / total) as f32;
     let mut high = low * 2.0;
     // Past the point where every candidate has its most pieces, more scale buys nothing.
-    let most = candidates.len() as u64 * u64::from(MAX_PIECES_PER_TRIANGLE - 1);
-    while extra_pieces(high) <= extra.min(most.saturating_sub(1)) && high < f32::MAX / 4.0 {
+    let reachable = extra.min(candidates.len() as u64 * u64::from(MAX_PIECES_PER_TRIANGLE - 1));
+    while extra_pieces(high) < reachable && high < f32::MAX / 4.0 {
         (low, high) = (high, high * 2.0);
     }
     for _ in 0..12 {
