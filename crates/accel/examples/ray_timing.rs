@@ -21,7 +21,8 @@
 //! single watertight test in the callback. `only` keeps the contenders whose name contains it.
 //! The environment variable `MESH_CONFIGS` (comma-separated `leaf:traversal:intersection`
 //! SAH settings, `ploc` / `ploc-fastest`, or `split=B`: the default build over triangles
-//! pre-split with budget `B`) adds `MeshBvh`s built other ways.
+//! pre-split with budget `B`; `sbvh` or `sbvh=budget:bins:overlap:traversal`: the spatial-split build,
+//! `MeshBvh::with_spatial_splits`) adds `MeshBvh`s built other ways.
 //!
 //! tinybvh (C++) joins every round when `TINYBVH_PEER` names the binary that
 //! `benches/peers/tinybvh.sh` builds, traced in the layouts `TINYBVH_LAYOUTS` lists
@@ -36,7 +37,7 @@
 mod common;
 
 use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
-use accel::mesh::MeshBvh;
+use accel::mesh::{MeshBvh, SpatialSplits};
 use accel::{
     Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, SplitStrategy, Triangle,
     WatertightRay,
@@ -311,6 +312,34 @@ fn main() {
         .unwrap_or_default()
         .split_terminator(',')
     {
+        if let Some(params) = c.strip_prefix("sbvh") {
+            // `sbvh` or `sbvh=budget:bins:overlap_threshold:traversal_cost`.
+            let mut splits = SpatialSplits::default();
+            if let Some(params) = params.strip_prefix('=') {
+                let p: Vec<f32> = params
+                    .split(':')
+                    .map(|x| x.parse().expect("a number"))
+                    .collect();
+                splits.reference_budget = p[0];
+                splits.bins = p.get(1).map_or(splits.bins, |&b| b as u32);
+                splits.overlap_threshold = p.get(2).copied().unwrap_or(splits.overlap_threshold);
+            }
+            let started = Instant::now();
+            let mut config = BuildConfig::default();
+            if let Some(traversal) = params.split(':').nth(3) {
+                config.sah.traversal = traversal.parse().expect("a traversal cost");
+            }
+            let mesh = MeshBvh::with_spatial_splits(&vertices, &indices, &config, &splits)
+                .expect("a triangle list");
+            println!(
+                "MeshBvh({c}): built in {:.2} s, {:.1} bytes/triangle, {} triangles in leaves",
+                started.elapsed().as_secs_f64(),
+                mesh.memory_bytes() as f64 / tris.len() as f64,
+                mesh.leaf_triangle_count()
+            );
+            contenders.push((format!("MeshBvh({c})"), mesh_tracer(mesh), false));
+            continue;
+        }
         if let Some(budget) = c.strip_prefix("split=") {
             let budget: f32 = budget.parse().expect("a split budget");
             let config = MeshBvh::default_config(tris.len());

@@ -2,7 +2,7 @@
 
 mod scenes;
 
-use accel::mesh::{Instance, InstancedScene, MeshBvh};
+use accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
 use accel::{Aabb, Backfaces, BuildConfig, Ray, SplitStrategy, WatertightRay};
 use glam::{Affine3A, Quat, Vec3, Vec3A};
 use scenes::Rng;
@@ -233,6 +233,85 @@ fn presplit_meshes_match_brute_force() {
             Overlap::Touching,
             &format!("{name}, refit"),
         );
+    }
+}
+
+/// Many copies of one large slanted triangle over a few small ones: every spatial split
+/// cuts all the copies alike, so it is the budget that stops the cutting.
+fn stacked_copies(rng: &mut Rng) -> TestMesh {
+    let mut mesh = soup(rng, 100);
+    let base = mesh.vertices.len() as u32;
+    mesh.vertices.extend([
+        Vec3::new(-5.0, -5.0, -5.0),
+        Vec3::new(5.0, 4.0, 5.0),
+        Vec3::new(5.0, 5.0, 4.5),
+    ]);
+    for _ in 0..200 {
+        mesh.indices.extend([base, base + 1, base + 2]);
+    }
+    mesh
+}
+
+/// Spatial-split builds answer as whole-triangle ones, on slivers, a soup and stacked copies
+/// of one triangle, with spatial splits priced everywhere or as by default, before and after
+/// a refit.
+#[test]
+fn spatial_split_meshes_match_brute_force() {
+    let mut rng = Rng::new(91);
+    let everywhere = SpatialSplits {
+        reference_budget: 2.0,
+        bins: 4,
+        overlap_threshold: 0.0,
+    };
+    let leaves_of_1 = BuildConfig {
+        max_leaf_size: 1,
+        ..BuildConfig::default()
+    };
+    let meshes = [
+        ("slivers", slivers(&mut rng, 1500)),
+        ("soup", soup(&mut rng, 2000)),
+        ("stacked copies", stacked_copies(&mut rng)),
+    ];
+    for (mesh_name, mut mesh) in meshes {
+        for (name, config, splits) in [
+            ("default", BuildConfig::default(), SpatialSplits::default()),
+            ("everywhere", BuildConfig::default(), everywhere),
+            ("leaves of 1", leaves_of_1, SpatialSplits::default()),
+            (
+                "no budget",
+                BuildConfig::default(),
+                SpatialSplits {
+                    reference_budget: 0.0,
+                    ..everywhere
+                },
+            ),
+        ] {
+            let name = format!("{mesh_name}, {name}");
+            let mut bvh =
+                MeshBvh::with_spatial_splits(&mesh.vertices, &mesh.indices, &config, &splits)
+                    .unwrap();
+            if splits.reference_budget == 0.0 {
+                assert_eq!(bvh.leaf_triangle_count(), bvh.triangle_count(), "{name}");
+            } else if mesh_name == "slivers" {
+                assert!(bvh.leaf_triangle_count() > bvh.triangle_count(), "{name}");
+            }
+            check_mesh_queries(&mesh, &bvh, &mut rng, Overlap::Touching, &name);
+            let moved = mesh
+                .vertices
+                .iter()
+                .map(|&v| v + Vec3::from(rng.vec3(-0.2, 0.2)))
+                .collect();
+            let original = core::mem::replace(&mut mesh.vertices, moved);
+            bvh.refit(&mesh.vertices).unwrap();
+            check_mesh_queries(
+                &mesh,
+                &bvh,
+                &mut rng,
+                Overlap::Touching,
+                &format!("{name}, refit"),
+            );
+            mesh.vertices = original;
+        }
     }
 }
 

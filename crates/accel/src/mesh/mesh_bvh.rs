@@ -3,7 +3,8 @@
 use super::MeshHit;
 use super::packets::{LeafPackets, triangle_bounds};
 use super::piece_leaves::merge_piece_leaves;
-use super::presplit::presplit_triangles;
+use super::presplit::{SplitReferences, presplit_triangles};
+use super::sbvh::{SpatialSplits, build_spatial_splits};
 use crate::bvh::wide::Bvh16;
 use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery, SplitStrategy, WatertightRay};
 use core::fmt;
@@ -180,6 +181,71 @@ impl MeshBvh {
         config: &BuildConfig,
         split_budget: f32,
     ) -> Result<Self, MeshError> {
+        Self::build_with(vertices, indices, config, |boxes, corners| {
+            let references = (split_budget > 0.0)
+                .then(|| presplit_triangles(boxes, corners, split_budget))
+                .filter(|refs| refs.boxes.len() > boxes.len());
+            let bvh = Bvh::build(
+                references.as_ref().map_or(boxes, |refs| &refs.boxes),
+                config,
+            );
+            (bvh, references)
+        })
+    }
+
+    /// Builds a spatial-split BVH (SBVH; Stich et al. 2009): a binned SAH build that, where
+    /// the best split by triangles leaves overlapping children, also prices splitting space,
+    /// cutting the triangles that straddle the plane into a piece on each side (see
+    /// [`SpatialSplits`]). `config` gives the leaf size, depth limit and SAH costs; its split
+    /// strategy is not used.
+    ///
+    /// The highest-quality and slowest build, for static meshes traced many times. Queries
+    /// and refits behave as after [`MeshBvh::with_splits`].
+    ///
+    /// ```
+    /// use accel::mesh::{MeshBvh, SpatialSplits};
+    /// use accel::{BuildConfig, Ray};
+    /// use glam::Vec3;
+    /// // A long sliver across a row of small triangles.
+    /// let mut vertices = vec![Vec3::ZERO, Vec3::new(100.0, 10.0, 0.0), Vec3::new(100.0, 11.0, 0.0)];
+    /// let mut indices = vec![0, 1, 2];
+    /// for i in 0..50u32 {
+    ///     let p = Vec3::new(2.0 * i as f32, 0.0, 5.0);
+    ///     vertices.extend([p, p + Vec3::X, p + Vec3::Y]);
+    ///     indices.extend([3 + 3 * i, 4 + 3 * i, 5 + 3 * i]);
+    /// }
+    /// let mesh = MeshBvh::with_spatial_splits(
+    ///     &vertices,
+    ///     &indices,
+    ///     &BuildConfig::default(),
+    ///     &SpatialSplits::default(),
+    /// )
+    /// .unwrap();
+    /// mesh.validate().unwrap();
+    /// let ray = Ray::new(Vec3::new(50.0, 5.2, -1.0), Vec3::Z);
+    /// assert_eq!(mesh.cast_ray(&ray, Default::default()).unwrap().triangle, 0);
+    /// ```
+    pub fn with_spatial_splits(
+        vertices: &[Vec3],
+        indices: &[u32],
+        config: &BuildConfig,
+        splits: &SpatialSplits,
+    ) -> Result<Self, MeshError> {
+        Self::build_with(vertices, indices, config, |boxes, corners| {
+            let (bvh, references) = build_spatial_splits(boxes, corners, config, splits);
+            (bvh, Some(references))
+        })
+    }
+
+    /// Checks the triangle list, bounds its triangles, and finishes the tree `build` makes
+    /// over their boxes (`build` gets the boxes and each triangle's corners, and returns the
+    /// binary tree and, where it built over pieces, the references its leaves index).
+    fn build_with(
+        vertices: &[Vec3],
+        indices: &[u32],
+        config: &BuildConfig,
+        build: impl FnOnce(&[Aabb], &dyn Fn(u32) -> [Vec3A; 3]) -> (Bvh, Option<SplitReferences>),
+    ) -> Result<Self, MeshError> {
         if !indices.len().is_multiple_of(3) {
             return Err(MeshError::NotATriangleList {
                 index_count: indices.len(),
@@ -197,13 +263,7 @@ impl MeshBvh {
             .map(|t| triangle_bounds(&corners(t)))
             .collect();
         let triangle_count = boxes.iter().filter(|b| !b.is_empty()).count();
-        let references = (split_budget > 0.0)
-            .then(|| presplit_triangles(&boxes, corners, split_budget))
-            .filter(|refs| refs.boxes.len() > boxes.len());
-        let mut bvh = Bvh::build(
-            references.as_ref().map_or(&boxes, |refs| &refs.boxes),
-            config,
-        );
+        let (mut bvh, references) = build(&boxes, &corners);
         if let Some(refs) = &references {
             merge_piece_leaves(&mut bvh, &refs.triangles, config);
         }

@@ -9,8 +9,11 @@ mod mesh_bvh;
 mod packets;
 mod piece_leaves;
 mod presplit;
+mod sbvh;
+mod sbvh_spatial;
 mod scene;
 
 pub use hit::MeshHit;
 pub use mesh_bvh::{MeshBvh, MeshError};
+pub use sbvh::SpatialSplits;
 pub use scene::{Instance, InstanceHit, InstancedScene};
