@@ -104,6 +104,11 @@ pub(super) fn build_spatial_splits(
     // longer place pieces apart from each other reliably.
     let min_extent = root_bounds.extent() * 1e-6;
     let budget = (settings.reference_budget.max(0.0) * work.len() as f32) as usize;
+    // The stack never holds more than the finished tree's references: room for all of them
+    // at once, so that it never grows by copying (a tenth of the build when it did).
+    work.reserve(budget);
+    out.boxes.reserve(work.len() + budget);
+    out.triangles.reserve(work.len() + budget);
     nodes.push(BvhNode::default());
     let mut tasks = vec![Task {
         node: 0,

@@ -2,6 +2,7 @@
 //! straddling references in two, and cutting them.
 
 use super::sbvh::{Reference, sweep_bins};
+use crate::geometry::chopped_triangle_bounds;
 use crate::{Aabb, clipped_triangle_bounds};
 use glam::Vec3A;
 
@@ -32,50 +33,76 @@ pub(super) fn best_spatial_split(
     bins: usize,
     min_extent: Vec3A,
 ) -> Option<SpatialSplit> {
-    let mut best: Option<SpatialSplit> = None;
-    for axis in 0..3 {
-        let (lo, hi) = (node.min[axis], node.max[axis]);
-        let extent = hi - lo;
-        if !(extent > min_extent[axis] && extent.is_finite()) {
+    let (lo, hi) = (node.min, node.max);
+    let extent = hi - lo;
+    let splittable: [bool; 3] =
+        core::array::from_fn(|a| extent[a] > min_extent[a] && extent[a].is_finite());
+    let width = extent / bins as f32;
+    let plane_at = |axis: usize, j: usize| {
+        if j == bins {
+            hi[axis]
+        } else {
+            lo[axis] + j as f32 * width[axis]
+        }
+    };
+    // Float-to-integer casts saturate: a coordinate rounded below `lo` lands in bin 0.
+    let bin_of = |axis: usize, x: f32| (((x - lo[axis]) / width[axis]) as usize).min(bins - 1);
+    let mut boxes = [[Aabb::EMPTY; MAX_BINS]; 3];
+    let mut enter = [[0u32; MAX_BINS]; 3];
+    let mut leave = [[0u32; MAX_BINS]; 3];
+    let mut planes = [[0.0f32; MAX_BINS]; 3];
+    // One pass for the three axes: a straddler's triangle is clipped to its box once, then
+    // chopped along each axis it straddles.
+    for r in refs {
+        let mut spans = [(0usize, 0usize); 3];
+        let mut straddles = false;
+        for axis in (0..3).filter(|&a| splittable[a]) {
+            let (first, last) = (
+                bin_of(axis, r.bounds.min[axis]),
+                bin_of(axis, r.bounds.max[axis]),
+            );
+            enter[axis][first] += 1;
+            leave[axis][last] += 1;
+            spans[axis] = (first, last);
+            if first == last {
+                boxes[axis][first] = boxes[axis][first].union(&r.bounds);
+            } else {
+                straddles = true;
+                for (k, plane) in planes[axis][..last - first].iter_mut().enumerate() {
+                    *plane = plane_at(axis, first + 1 + k);
+                }
+            }
+        }
+        if !straddles {
             continue;
         }
-        let width = extent / bins as f32;
-        let plane_at = |j: usize| if j == bins { hi } else { lo + j as f32 * width };
-        // Float-to-integer casts saturate: a coordinate rounded below `lo` lands in bin 0.
-        let bin_of = |x: f32| (((x - lo) / width) as usize).min(bins - 1);
-        let mut boxes = [Aabb::EMPTY; MAX_BINS];
-        let mut enter = [0u32; MAX_BINS];
-        let mut leave = [0u32; MAX_BINS];
-        for r in refs {
-            let (first, last) = (bin_of(r.bounds.min[axis]), bin_of(r.bounds.max[axis]));
-            enter[first] += 1;
-            leave[last] += 1;
-            if first == last {
-                boxes[first] = boxes[first].union(&r.bounds);
-                continue;
-            }
-            let c = corners(r.triangle);
-            for (j, slab) in boxes.iter_mut().enumerate().take(last + 1).skip(first) {
-                let mut region = r.bounds;
-                region.min[axis] = region.min[axis].max(plane_at(j));
-                region.max[axis] = region.max[axis].min(plane_at(j + 1));
-                *slab = slab.union(&clipped_triangle_bounds(&c, &region));
-            }
-        }
-        let Some((plane, cost, left, right)) =
-            sweep_bins(&boxes[..bins], &enter[..bins], &leave[..bins])
+        // Only the cost is estimated here; the pieces the tree keeps are bounded
+        // conservatively when the split is made (`partition_spatially`).
+        let cuts: [Option<&[f32]>; 3] = core::array::from_fn(|a| {
+            let (first, last) = spans[a];
+            (last > first).then(|| &planes[a][..last - first])
+        });
+        chopped_triangle_bounds(&corners(r.triangle), &r.bounds, cuts, |axis, k, b| {
+            let bin = &mut boxes[axis][spans[axis].0 + k];
+            *bin = bin.union(&b);
+        });
+    }
+    let mut best: Option<SpatialSplit> = None;
+    for axis in (0..3).filter(|&a| splittable[a]) {
+        let (enter, leave) = (&enter[axis][..bins], &leave[axis][..bins]);
+        let Some((plane, cost, left, right)) = sweep_bins(&boxes[axis][..bins], enter, leave)
         else {
             continue;
         };
         if best.as_ref().is_none_or(|b| cost < b.cost) {
             best = Some(SpatialSplit {
                 axis,
-                plane: plane_at(plane + 1),
+                plane: plane_at(axis, plane + 1),
                 cost,
                 left,
                 right,
                 left_count: enter[..=plane].iter().sum::<u32>() as usize,
-                right_count: leave[plane + 1..bins].iter().sum::<u32>() as usize,
+                right_count: leave[plane + 1..].iter().sum::<u32>() as usize,
             });
         }
     }
