@@ -17,6 +17,16 @@ pub trait RayWalk {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>;
 
+    /// As [`RayWalk::walk_ray`], but regions in any order (still skipping those that start
+    /// beyond `ray.t_max`): for visitors that stop at the first hit whatever its distance
+    /// ([`any_hit`]), which gain nothing from the sorting. The default walks in order.
+    fn walk_ray_any_order<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        self.walk_ray(ray, visit);
+    }
+
     /// As [`RayWalk::walk_ray`], and where a node's test finds several leaves in range, first
     /// calls `announce(primitive)` for every primitive in them, before visiting any.
     ///
@@ -81,7 +91,7 @@ where
 {
     let mut ray = *ray;
     let mut found = None;
-    walk.walk_ray(&mut ray, |p, ray| {
+    walk.walk_ray_any_order(&mut ray, |p, ray| {
         if hit(p, ray) {
             found = Some(p);
             return ControlFlow::Break(());

@@ -86,10 +86,23 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         #[cfg(target_arch = "x86_64")]
         if N >= 16 && std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            unsafe { visit_ray_avx2::<N, false, L, _, _>(self, ray, |_| {}, visit) };
+            unsafe { visit_ray_avx2::<N, false, true, L, _, _>(self, ray, |_| {}, visit) };
             return;
         }
-        visit_ray::<N, false, false, L, _, _>(self, ray, |_| {}, visit)
+        visit_ray::<N, false, false, true, L, _, _>(self, ray, |_| {}, visit)
+    }
+
+    fn walk_ray_any_order<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        #[cfg(target_arch = "x86_64")]
+        if N >= 16 && std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            unsafe { visit_ray_avx2::<N, false, false, L, _, _>(self, ray, |_| {}, visit) };
+            return;
+        }
+        visit_ray::<N, false, false, false, L, _, _>(self, ray, |_| {}, visit)
     }
 
     fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
@@ -107,10 +120,10 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            unsafe { visit_ray_avx2::<N, true, L, _, _>(self, ray, announce, visit) };
+            unsafe { visit_ray_avx2::<N, true, true, L, _, _>(self, ray, announce, visit) };
             return;
         }
-        visit_ray::<N, true, false, L, _, _>(self, ray, announce, visit)
+        visit_ray::<N, true, false, true, L, _, _>(self, ray, announce, visit)
     }
 }
 
@@ -122,7 +135,7 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn visit_ray_avx2<const N: usize, const COSTLY_LEAVES: bool, L, A, V>(
+unsafe fn visit_ray_avx2<const N: usize, const COSTLY_LEAVES: bool, const ORDERED: bool, L, A, V>(
     tree: &WideBvh<N, L>,
     ray: &mut Ray,
     announce: A,
@@ -132,7 +145,7 @@ unsafe fn visit_ray_avx2<const N: usize, const COSTLY_LEAVES: bool, L, A, V>(
     A: FnMut(u32),
     V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
-    visit_ray::<N, COSTLY_LEAVES, true, L, _, _>(tree, ray, announce, visit)
+    visit_ray::<N, COSTLY_LEAVES, true, ORDERED, L, _, _>(tree, ray, announce, visit)
 }
 
 impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {

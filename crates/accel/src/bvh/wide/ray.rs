@@ -234,6 +234,10 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 /// whose hook does nothing ([`closest_hit`](crate::query::ray_walk::closest_hit)), mesh BVHs'
 /// included; walking those with it off measured no different on the picking bench.
 ///
+/// `ORDERED` off visits leaves and descends into children in slot order, unsorted: for walks
+/// that stop at the first hit whatever its distance (occlusion), as Embree's and tinybvh's
+/// any-hit traversals do; the range still prunes.
+///
 /// `WIDE_LANES` says that the walk is compiled with 8-lane vectors (the AVX2 copy), so node
 /// tests take [`SlotRayTest::intersect_slots_wide`].
 // Always inlined, so that the AVX2 copy of the announcing walk (`query.rs`) compiles this
@@ -243,6 +247,7 @@ pub(super) fn visit_ray<
     const N: usize,
     const COSTLY_LEAVES: bool,
     const WIDE_LANES: bool,
+    const ORDERED: bool,
     L,
     A,
     F,
@@ -307,6 +312,29 @@ pub(super) fn visit_ray<
                     .unwrap_or(&[])
                 {
                     announce(p);
+                }
+            }
+        }
+        if !ORDERED {
+            // Any order will do (an occlusion test stops at the first hit): leaves in slot
+            // order, with no sort.
+            while leaf_hits != 0 {
+                let slot = leaf_hits.trailing_zeros() as usize;
+                leaf_hits &= leaf_hits - 1;
+                if entry_t[slot] > ray.t_max {
+                    continue;
+                }
+                if let Some(p) = node.inline_primitive(slot) {
+                    if visit(p, ray).is_break() {
+                        return;
+                    }
+                    continue;
+                }
+                let first = node.child(slot) as usize;
+                for &p in &tree.primitive_indices[first..first + node.count(slot) as usize] {
+                    if visit(p, ray).is_break() {
+                        return;
+                    }
                 }
             }
         }
@@ -379,6 +407,28 @@ pub(super) fn visit_ray<
             }
         } else if !has_several(kept) {
             node_index = node.child(kept.trailing_zeros() as usize);
+        } else if !ORDERED {
+            // Descend into the nearest child, push the rest unsorted.
+            let mut nearest = kept.trailing_zeros() as usize;
+            let mut rest = kept & (kept - 1);
+            while rest != 0 {
+                let slot = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                nearest = if entry_t[slot] < entry_t[nearest] {
+                    slot
+                } else {
+                    nearest
+                };
+            }
+            node_index = node.child(nearest);
+            kept &= !(1 << nearest);
+            while kept != 0 {
+                let slot = kept.trailing_zeros() as usize;
+                kept &= kept - 1;
+                let child = node.child(slot);
+                prefetch_node(&tree.nodes[child as usize]);
+                stack.push((child, entry_t[slot]));
+            }
         } else {
             // Sort the hit children farthest first (insertion sort: at most N), push all
             // but the nearest, and descend into the nearest.
