@@ -222,18 +222,17 @@ fn presplit_meshes_match_brute_force() {
         // The slivers were cut, and pieces of one sliver sit in several leaves.
         assert!(bvh.leaf_triangle_count() > bvh.triangle_count(), "{name}");
         check_mesh_queries(&mesh, &bvh, &mut rng, Overlap::Touching, name);
-        for v in &mut mesh.vertices {
-            *v += Vec3::from(rng.vec3(-0.2, 0.2));
-        }
-        bvh.refit(&mesh.vertices).unwrap();
-        check_mesh_queries(
-            &mesh,
-            &bvh,
-            &mut rng,
-            Overlap::Touching,
-            &format!("{name}, refit"),
-        );
+        refit_and_check(&mut mesh, &mut bvh, &mut rng, name);
     }
+}
+
+/// Moves every vertex a little, refits, and checks the queries of a tree over pieces.
+fn refit_and_check(mesh: &mut TestMesh, bvh: &mut MeshBvh, rng: &mut Rng, name: &str) {
+    for v in &mut mesh.vertices {
+        *v += Vec3::from(rng.vec3(-0.2, 0.2));
+    }
+    bvh.refit(&mesh.vertices).unwrap();
+    check_mesh_queries(mesh, bvh, rng, Overlap::Touching, &format!("{name}, refit"));
 }
 
 /// Many copies of one large slanted triangle over a few small ones: every spatial split
@@ -296,20 +295,8 @@ fn spatial_split_meshes_match_brute_force() {
                 assert!(bvh.leaf_triangle_count() > bvh.triangle_count(), "{name}");
             }
             check_mesh_queries(&mesh, &bvh, &mut rng, Overlap::Touching, &name);
-            let moved = mesh
-                .vertices
-                .iter()
-                .map(|&v| v + Vec3::from(rng.vec3(-0.2, 0.2)))
-                .collect();
-            let original = core::mem::replace(&mut mesh.vertices, moved);
-            bvh.refit(&mesh.vertices).unwrap();
-            check_mesh_queries(
-                &mesh,
-                &bvh,
-                &mut rng,
-                Overlap::Touching,
-                &format!("{name}, refit"),
-            );
+            let original = mesh.vertices.clone();
+            refit_and_check(&mut mesh, &mut bvh, &mut rng, &name);
             mesh.vertices = original;
         }
     }

@@ -76,8 +76,10 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     }
 }
 
-impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
-    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
+    /// A walk that announces nothing, sorted or not (`ORDERED`, see `visit_ray`).
+    #[inline(always)]
+    fn walk_ray_plain<const ORDERED: bool, V>(&self, ray: &mut Ray, visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
@@ -86,23 +88,26 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         #[cfg(target_arch = "x86_64")]
         if N >= 16 && std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            unsafe { visit_ray_avx2::<N, false, true, L, _, _>(self, ray, |_| {}, visit) };
+            unsafe { visit_ray_avx2::<N, false, ORDERED, L, _, _>(self, ray, |_| {}, visit) };
             return;
         }
-        visit_ray::<N, false, false, true, L, _, _>(self, ray, |_| {}, visit)
+        visit_ray::<N, false, false, ORDERED, L, _, _>(self, ray, |_| {}, visit)
+    }
+}
+
+impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        self.walk_ray_plain::<true, V>(ray, visit);
     }
 
     fn walk_ray_any_order<V>(&self, ray: &mut Ray, visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        #[cfg(target_arch = "x86_64")]
-        if N >= 16 && std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2.
-            unsafe { visit_ray_avx2::<N, false, false, L, _, _>(self, ray, |_| {}, visit) };
-            return;
-        }
-        visit_ray::<N, false, false, false, L, _, _>(self, ray, |_| {}, visit)
+        self.walk_ray_plain::<false, V>(ray, visit);
     }
 
     fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
