@@ -16,6 +16,6 @@ pub use ray::Ray;
 pub use ray_aabb::SLAB_WIDENING;
 pub use sphere::Sphere;
 pub use triangle::{Backfaces, Triangle, TriangleHit, WatertightRay, intersect_triangle_f64};
-pub(crate) use triangle_clip::chopped_triangle_bounds;
 pub use triangle_clip::clipped_triangle_bounds;
+pub(crate) use triangle_clip::{chopped_triangle_bounds, cut_triangle_part};
 pub use triangle4::{Triangle4, Triangle4Hits};

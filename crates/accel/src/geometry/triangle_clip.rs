@@ -49,6 +49,22 @@ pub fn clipped_triangle_bounds(corners: &[Vec3A; 3], region: &Aabb) -> Aabb {
         .intersection(&clip)
 }
 
+/// Cuts `region` at the plane `point[axis] = plane`: for the side below and the side above,
+/// that side's region and the box of the triangle's part in it ([`clipped_triangle_bounds`],
+/// empty where the triangle does not reach the side). What pre-splitting and spatial splits
+/// both do to a piece of a triangle.
+pub(crate) fn cut_triangle_part(
+    corners: &[Vec3A; 3],
+    region: &Aabb,
+    axis: usize,
+    plane: f32,
+) -> [(Aabb, Aabb); 2] {
+    let (mut below, mut above) = (*region, *region);
+    below.max[axis] = plane;
+    above.min[axis] = plane;
+    [below, above].map(|side| (side, clipped_triangle_bounds(corners, &side)))
+}
+
 /// The boxes of the parts of the triangle `corners` inside `region` between consecutive
 /// planes, on each axis given planes: `cuts[axis]` lists planes across `region` on `axis`
 /// (increasing), and `piece(axis, k, box)` gets the part below `planes[0]` (`k = 0`),

@@ -10,7 +10,8 @@
 //! planes of a power-of-two grid over the scene, the planes a top-down or Morton-order build
 //! splits at first. Any builder then runs on the references unchanged.
 
-use crate::{Aabb, clipped_triangle_bounds};
+use crate::Aabb;
+use crate::geometry::cut_triangle_part;
 use glam::Vec3A;
 
 /// Most pieces one triangle is cut into: past this a triangle's pieces are far smaller than
@@ -87,10 +88,7 @@ pub(super) fn presplit_triangles(
                 continue;
             }
             let (axis, plane) = split_plane(&piece, &scene);
-            let (mut below, mut above) = (region, region);
-            below.max[axis] = plane;
-            above.min[axis] = plane;
-            let halves = [below, above].map(|r| (r, clipped_triangle_bounds(&corners, &r)));
+            let halves = cut_triangle_part(&corners, &region, axis, plane);
             match halves.map(|(_, piece)| !piece.is_empty()) {
                 [true, true] => {
                     // The rest of the cuts go where the pieces are longer.

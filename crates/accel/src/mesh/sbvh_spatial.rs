@@ -2,8 +2,8 @@
 //! straddling references in two, and cutting them.
 
 use super::sbvh::{Reference, sweep_bins};
-use crate::geometry::chopped_triangle_bounds;
-use crate::{Aabb, clipped_triangle_bounds};
+use crate::Aabb;
+use crate::geometry::{chopped_triangle_bounds, cut_triangle_part};
 use glam::Vec3A;
 
 /// The most bins a spatial-split build may ask for (the bin arrays live on the stack).
@@ -152,11 +152,8 @@ pub(super) fn partition_spatially<'s>(
             nl -= 1.0;
             continue;
         }
-        let c = corners(r.triangle);
-        let (mut below, mut above) = (r.bounds, r.bounds);
-        below.max[axis] = plane;
-        above.min[axis] = plane;
-        let pieces = [below, above].map(|region| clipped_triangle_bounds(&c, &region));
+        let pieces =
+            cut_triangle_part(&corners(r.triangle), &r.bounds, axis, plane).map(|(_, p)| p);
         let piece = |bounds: Aabb| Reference {
             bounds,
             triangle: r.triangle,
