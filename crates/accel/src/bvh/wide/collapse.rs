@@ -1,7 +1,7 @@
 //! From binary to wide: pull grandchildren up until each node has `N` children.
 
 use super::plan::plan_slots;
-use super::{WideBvh, WideLayout, WideNode};
+use super::{WideBvh, WideLayout, WideNode, ids_are_positions};
 use crate::Aabb;
 use crate::bvh::validate::ValidationError;
 use crate::bvh::{Bvh, BvhNode};
@@ -27,6 +27,7 @@ pub(super) fn collapse<const N: usize, L: WideLayout<N>>(bvh: &Bvh) -> WideBvh<N
             bounds: Aabb::EMPTY,
             nodes: Vec::new(),
             primitive_indices: bvh.primitive_indices.clone(),
+            ids_are_positions: ids_are_positions(&bvh.primitive_indices),
         };
     }
     let plan = plan_slots::<N>(&bvh.nodes);
@@ -67,6 +68,7 @@ pub(super) fn collapse<const N: usize, L: WideLayout<N>>(bvh: &Bvh) -> WideBvh<N
         bounds: stored_bounds[0],
         nodes: out,
         primitive_indices: bvh.primitive_indices.clone(),
+        ids_are_positions: ids_are_positions(&bvh.primitive_indices),
     }
 }
 

@@ -304,8 +304,13 @@ pub(super) fn visit_ray<
                     announce(p);
                     continue;
                 }
-                let first = node.child(slot) as usize;
-                let count = node.count(slot) as usize;
+                let first = node.child(slot);
+                let count = node.count(slot);
+                if tree.ids_are_positions {
+                    (first..first + count).for_each(&mut announce);
+                    continue;
+                }
+                let (first, count) = (first as usize, count as usize);
                 for &p in tree
                     .primitive_indices
                     .get(first..first + count)
@@ -324,17 +329,8 @@ pub(super) fn visit_ray<
                 if entry_t[slot] > ray.t_max {
                     continue;
                 }
-                if let Some(p) = node.inline_primitive(slot) {
-                    if visit(p, ray).is_break() {
-                        return;
-                    }
-                    continue;
-                }
-                let first = node.child(slot) as usize;
-                for &p in &tree.primitive_indices[first..first + node.count(slot) as usize] {
-                    if visit(p, ray).is_break() {
-                        return;
-                    }
+                if visit_leaf(tree, node, slot, ray, &mut visit).is_break() {
+                    return;
                 }
             }
         }
@@ -362,17 +358,8 @@ pub(super) fn visit_ray<
                 // Sorted: every leaf after this one starts beyond the range too.
                 break;
             }
-            if let Some(p) = node.inline_primitive(slot as usize) {
-                if visit(p, ray).is_break() {
-                    return;
-                }
-                continue;
-            }
-            let first = node.child(slot as usize) as usize;
-            for &p in &tree.primitive_indices[first..first + node.count(slot as usize) as usize] {
-                if visit(p, ray).is_break() {
-                    return;
-                }
+            if visit_leaf(tree, node, slot as usize, ray, &mut visit).is_break() {
+                return;
             }
         }
         let inner = mask & !leaves;
@@ -453,6 +440,38 @@ pub(super) fn visit_ray<
             node_index = order[hits - 1].1;
         }
     }
+}
+
+/// Visits the primitives of leaf slot `slot`: an id inlined in the node, the slot's range
+/// itself where ids are positions ([`WideBvh::ids_are_positions`]), else the ids the range
+/// names in the primitive array.
+#[inline(always)]
+fn visit_leaf<const N: usize, L, F>(
+    tree: &WideBvh<N, L>,
+    node: &L,
+    slot: usize,
+    ray: &mut Ray,
+    visit: &mut F,
+) -> ControlFlow<()>
+where
+    L: WideLayout<N>,
+    F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+{
+    if let Some(p) = node.inline_primitive(slot) {
+        return visit(p, ray);
+    }
+    let (first, count) = (node.child(slot), node.count(slot));
+    if tree.ids_are_positions {
+        for p in first..first + count {
+            visit(p, ray)?;
+        }
+        return ControlFlow::Continue(());
+    }
+    let first = first as usize;
+    for &p in &tree.primitive_indices[first..first + count as usize] {
+        visit(p, ray)?;
+    }
+    ControlFlow::Continue(())
 }
 
 /// True when `mask` has more than one bit set.
