@@ -291,8 +291,8 @@ pub(super) fn visit_ray<
             }
         }
         // One leaf needs no announcement: its first primitive is visited at once anyway.
-        // `get`, not indexing: with no panic to keep, a walk whose hook does nothing (every
-        // `walk_ray`, the mesh BVHs' rays among them) compiles this loop away. (Masks are
+        // A walk whose hook does nothing (every `walk_ray`, the mesh BVHs' rays among them)
+        // compiles this loop away (see `for_each_leaf_id`). (Masks are
         // counted with `x & (x - 1)`, here and below: the baseline x86-64 target has no
         // `popcnt`, and `count_ones` costs a dozen instructions per node without it.)
         if has_several(leaf_hits) {
@@ -300,24 +300,10 @@ pub(super) fn visit_ray<
             while announced != 0 {
                 let slot = announced.trailing_zeros() as usize;
                 announced &= announced - 1;
-                if let Some(p) = node.inline_primitive(slot) {
+                let _ = for_each_leaf_id(tree, node, slot, |p| {
                     announce(p);
-                    continue;
-                }
-                let first = node.child(slot);
-                let count = node.count(slot);
-                if tree.ids_are_positions {
-                    (first..first + count).for_each(&mut announce);
-                    continue;
-                }
-                let (first, count) = (first as usize, count as usize);
-                for &p in tree
-                    .primitive_indices
-                    .get(first..first + count)
-                    .unwrap_or(&[])
-                {
-                    announce(p);
-                }
+                    ControlFlow::Continue(())
+                });
             }
         }
         if !ORDERED {
@@ -329,7 +315,7 @@ pub(super) fn visit_ray<
                 if entry_t[slot] > ray.t_max {
                     continue;
                 }
-                if visit_leaf(tree, node, slot, ray, &mut visit).is_break() {
+                if for_each_leaf_id(tree, node, slot, |p| visit(p, ray)).is_break() {
                     return;
                 }
             }
@@ -358,7 +344,7 @@ pub(super) fn visit_ray<
                 // Sorted: every leaf after this one starts beyond the range too.
                 break;
             }
-            if visit_leaf(tree, node, slot as usize, ray, &mut visit).is_break() {
+            if for_each_leaf_id(tree, node, slot as usize, |p| visit(p, ray)).is_break() {
                 return;
             }
         }
@@ -442,34 +428,38 @@ pub(super) fn visit_ray<
     }
 }
 
-/// Visits the primitives of leaf slot `slot`: an id inlined in the node, the slot's range
-/// itself where ids are positions ([`WideBvh::ids_are_positions`]), else the ids the range
-/// names in the primitive array.
+/// Calls `f` with the primitive ids of leaf slot `slot`: an id inlined in the node, the
+/// slot's range itself where ids are positions ([`WideBvh::ids_are_positions`]), else the
+/// ids the range names in the primitive array. `get`, not indexing: with no panic to keep, a
+/// call whose `f` does nothing compiles away.
 #[inline(always)]
-fn visit_leaf<const N: usize, L, F>(
+fn for_each_leaf_id<const N: usize, L, F>(
     tree: &WideBvh<N, L>,
     node: &L,
     slot: usize,
-    ray: &mut Ray,
-    visit: &mut F,
+    mut f: F,
 ) -> ControlFlow<()>
 where
     L: WideLayout<N>,
-    F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    F: FnMut(u32) -> ControlFlow<()>,
 {
     if let Some(p) = node.inline_primitive(slot) {
-        return visit(p, ray);
+        return f(p);
     }
     let (first, count) = (node.child(slot), node.count(slot));
     if tree.ids_are_positions {
         for p in first..first + count {
-            visit(p, ray)?;
+            f(p)?;
         }
         return ControlFlow::Continue(());
     }
-    let first = first as usize;
-    for &p in &tree.primitive_indices[first..first + count as usize] {
-        visit(p, ray)?;
+    let (first, count) = (first as usize, count as usize);
+    for &p in tree
+        .primitive_indices
+        .get(first..first + count)
+        .unwrap_or(&[])
+    {
+        f(p)?;
     }
     ControlFlow::Continue(())
 }
