@@ -1,8 +1,8 @@
 //! The bottom level: a 16-wide BVH over one mesh's triangles.
 
 use super::MeshHit;
+use super::leaf_merge::merge_leaves;
 use super::packets::{LeafPackets, triangle_bounds};
-use super::piece_leaves::merge_piece_leaves;
 use super::presplit::{SplitReferences, presplit_triangles};
 use super::sbvh::{SpatialSplits, build_spatial_splits};
 use crate::bvh::wide::Bvh16;
@@ -267,9 +267,11 @@ impl MeshBvh {
             .collect();
         let triangle_count = boxes.iter().filter(|b| !b.is_empty()).count();
         let (mut bvh, references) = build(&boxes, &corners);
-        if let Some(refs) = &references {
-            merge_piece_leaves(&mut bvh, &refs.triangles, config);
-        }
+        merge_leaves(
+            &mut bvh,
+            references.as_ref().map(|refs| refs.triangles.as_slice()),
+            config,
+        );
         let (packets, piece_boxes) =
             LeafPackets::pack(&mut bvh, vertices, indices, references.as_ref());
         Ok(Self {
@@ -317,7 +319,7 @@ impl MeshBvh {
         let [a, b, c] = self.packets.corners(packet, lane);
         MeshHit {
             t: hit.t,
-            triangle: self.packets.triangles[packet as usize][lane],
+            triangle: self.packets.triangle(packet, lane),
             barycentrics: hit.barycentrics(),
             geometric_normal: (b - a).cross(c - a).normalize_or_zero(),
             front_face: hit.front_face,
@@ -331,7 +333,7 @@ impl MeshBvh {
         self.tree.cast_ray(ray, |packet, r| {
             wt.set_t_max(r.t_max);
             let (lane, h) = wt
-                .intersect4(&self.packets.packets[packet as usize], backfaces)
+                .intersect4(self.packets.corners4(packet), backfaces)
                 .closest()?;
             if best.is_none_or(|(_, _, b)| h.t < b.t) {
                 best = Some((packet, lane, h));
@@ -346,9 +348,7 @@ impl MeshBvh {
         let wt = WatertightRay::new(ray);
         self.tree
             .cast_ray_any(ray, |packet, _| {
-                wt.intersect4(&self.packets.packets[packet as usize], backfaces)
-                    .mask
-                    != 0
+                wt.intersect4(self.packets.corners4(packet), backfaces).mask != 0
             })
             .is_some()
     }
@@ -359,7 +359,7 @@ impl MeshBvh {
         let start = out.len();
         // An any-hit traversal that never accepts visits every leaf the ray reaches.
         self.tree.cast_ray_any(ray, |packet, _| {
-            let hits = wt.intersect4(&self.packets.packets[packet as usize], backfaces);
+            let hits = wt.intersect4(self.packets.corners4(packet), backfaces);
             let mut mask = hits.mask;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
@@ -392,7 +392,7 @@ impl MeshBvh {
         self.tree.for_each_overlapping_aabb(aabb, |packet| {
             for lane in self.packets.used_lanes(packet) {
                 if self.packets.lane_bounds(packet, lane).intersects_aabb(aabb) {
-                    let triangle = self.packets.triangles[packet as usize][lane];
+                    let triangle = self.packets.triangle(packet, lane);
                     if self.split {
                         found.push(triangle);
                     } else {

@@ -5,9 +5,9 @@
 //! - [`InstancedScene`]: instances of shared meshes under transforms, under a top-level BVH.
 
 mod hit;
+mod leaf_merge;
 mod mesh_bvh;
 mod packets;
-mod piece_leaves;
 mod presplit;
 mod sbvh;
 mod sbvh_spatial;
