@@ -336,12 +336,19 @@ pub(super) fn visit_ray<
         }
         // One leaf needs no announcement: its first primitive is visited at once anyway.
         // A walk whose hook does nothing (every `walk_ray`, the mesh BVHs' rays among them)
-        // compiles this loop away (see `for_each_leaf_id`). (Masks are
-        // counted with `x & (x - 1)`, here and below: the baseline x86-64 target has no
-        // `popcnt`, and `count_ones` costs a dozen instructions per node without it.)
+        // compiles this loop away (see `for_each_leaf_id`), but only because the loop is
+        // bounded by N: LLVM may not assume that a Rust loop ends, so `while announced != 0`
+        // with an empty body stayed in the code as a loop over the bits, with its
+        // mispredicted exit (mesh shadow rays 5-6% and closest-hit rays 2-4% slower,
+        // BENCHMARKS.md). (Masks are counted with `x & (x - 1)`, here and below: the
+        // baseline x86-64 target has no `popcnt`, and `count_ones` costs a dozen
+        // instructions per node without it.)
         if has_several(leaf_hits) {
             let mut announced = leaf_hits;
-            while announced != 0 {
+            for _ in 0..N {
+                if announced == 0 {
+                    break;
+                }
                 let slot = announced.trailing_zeros() as usize;
                 announced &= announced - 1;
                 let _ = for_each_leaf_id(tree, node, slot, |p| {
