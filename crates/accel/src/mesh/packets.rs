@@ -126,7 +126,7 @@ impl LeafPackets {
     #[inline]
     pub fn used_lanes(&self, packet: u32) -> impl Iterator<Item = usize> + '_ {
         let ids = &self.packets[packet as usize].triangles;
-        (0..4).filter(move |&l| ids[l] != NO_TRIANGLE)
+        (0..LANES).filter(move |&l| ids[l] != NO_TRIANGLE)
     }
 
     /// The box of one lane's triangle; empty when a corner is not finite, so such a triangle
@@ -152,7 +152,7 @@ impl LeafPackets {
             triangles: ids,
         } = &mut self.packets[p];
         let mut bounds = Aabb::EMPTY;
-        for lane in (0..4).filter(|&l| ids[l] != NO_TRIANGLE) {
+        for lane in (0..LANES).filter(|&l| ids[l] != NO_TRIANGLE) {
             let corners = lane_indices[lane].map(|i| Vec3A::from(vertices[i as usize]));
             tri.set(lane, corners);
             // From the corners in registers: reading the packet back right after its

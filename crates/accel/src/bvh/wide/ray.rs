@@ -52,7 +52,7 @@ pub trait SlotRayTest<const N: usize> {
     /// stores to retire (rays at 10^5 entities ran 1-1.5% faster without the copy).
     fn intersect_slots(&self, ray: &RayLanes, t_max: f32, entry_t: &mut [f32; N]) -> u32;
     /// [`Self::intersect_slots`] for a walk compiled with 8-lane vectors (the AVX2 copy of the
-    /// announcing walk); the same results.
+    /// walk); the same hits, or conservative ones where the fused test runs.
     #[inline(always)]
     fn intersect_slots_wide(&self, ray: &RayLanes, t_max: f32, entry_t: &mut [f32; N]) -> u32 {
         self.intersect_slots(ray, t_max, entry_t)
