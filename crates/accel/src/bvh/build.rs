@@ -59,7 +59,11 @@ impl BuildPrim {
     /// without the other two lanes.
     #[inline(always)]
     pub(super) fn corner_sum(&self, axis: usize) -> f32 {
-        self.lo.to_array()[axis] + self.hi.to_array()[axis]
+        // Read through references into the record: `to_array()[axis]` copied the lower
+        // corner to the stack at every call to index it (a store and a reload per primitive
+        // in the partition's classification loop).
+        let (lo, hi): (&[f32; 4], &[f32; 4]) = (self.lo.as_ref(), self.hi.as_ref());
+        lo[axis & 3] + hi[axis & 3]
     }
 
     /// The primitive's id.

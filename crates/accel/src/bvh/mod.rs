@@ -14,6 +14,8 @@
 //! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
 //! tree ([`crate::query::binary`]).
 
+#[cfg(target_arch = "x86_64")]
+mod binning_avx2;
 mod build;
 #[cfg(feature = "rayon")]
 mod build_parallel;
