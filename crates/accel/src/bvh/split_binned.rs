@@ -172,7 +172,7 @@ fn split_with<const B: usize, const SUMS: bool>(
         1
     };
     // Where the CPU has AVX2, both passes in wide registers (see `binning_avx2`): the same
-    // decision, 11% off a million-triangle build.
+    // decision, 5-13% off a million-triangle build (BENCHMARKS.md).
     #[cfg(target_arch = "x86_64")]
     let found = if SUMS && stride == 1 && (B == 8 || B == 16) && binning_avx2::available() {
         wide_plane::<B, SUMS>(prims, &map)
