@@ -110,11 +110,12 @@ fn bin<const B: usize>(
     (rows, counts)
 }
 
-/// Eight rows of eight floats, transposed: component `k` of every row in `out[k]`, for the
-/// six components that hold corners (0-2 the lower corner, 4-6 the negated upper one).
+/// Eight records of eight floats transposed, component `k` of every record in `out[k]`, for
+/// the six components that hold corners: 0-2 and 4-6 (a box's lower corner then its upper, as
+/// a `BuildPrim` holds them; here, a bin's lower corner then its negated upper one).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn transpose(r: &[__m256]) -> [__m256; 6] {
+pub(super) fn transpose(r: &[__m256]) -> [__m256; 6] {
     let t: [__m256; 8] = core::array::from_fn(|k| {
         let (a, b) = (r[k / 2 * 2], r[k / 2 * 2 + 1]);
         if k % 2 == 0 {

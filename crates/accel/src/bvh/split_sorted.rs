@@ -123,14 +123,14 @@ fn sweep_axis_portable(records: &[BuildPrim; MAX_PRIMS], n: usize, axis: usize) 
 use avx2::best_plane_avx2;
 
 mod avx2 {
+    use super::super::binning_avx2::transpose;
     use super::{AxisPlane, BuildPrim, MAX_PRIMS};
     use core::arch::x86_64::{
         __m256, __m256i, _CMP_EQ_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_ps, _mm256_and_ps,
         _mm256_blend_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_cvttps_epi32, _mm256_loadu_ps,
-        _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_permute2f128_ps,
-        _mm256_permutevar8x32_ps, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps,
-        _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps,
-        _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+        _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_permutevar8x32_ps,
+        _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+        _mm256_storeu_si256, _mm256_sub_ps,
     };
 
     /// One compare-exchange step of a bitonic network over the keys, the primitives'
@@ -236,23 +236,9 @@ mod avx2 {
             // SAFETY: a `BuildPrim` is eight floats.
             unsafe { _mm256_loadu_ps(p.cast::<f32>()) }
         });
-        let t: [__m256; 8] = core::array::from_fn(|k| {
-            let (a, b) = (r[k / 2 * 2], r[k / 2 * 2 + 1]);
-            if k % 2 == 0 {
-                _mm256_unpacklo_ps(a, b)
-            } else {
-                _mm256_unpackhi_ps(a, b)
-            }
-        });
-        // Components 0 and 4 (x), 1 and 5 (y), 2 and 6 (z) of rows 0-3, then of rows 4-7.
-        let x = [0, 4].map(|q| _mm256_shuffle_ps::<0x44>(t[q], t[q + 2]));
-        let y = [0, 4].map(|q| _mm256_shuffle_ps::<0xEE>(t[q], t[q + 2]));
-        let z = [1, 5].map(|q| _mm256_shuffle_ps::<0x44>(t[q], t[q + 2]));
-        let lower = |v: [__m256; 2]| _mm256_permute2f128_ps::<0x20>(v[0], v[1]);
-        let upper = |v: [__m256; 2]| _mm256_permute2f128_ps::<0x31>(v[0], v[1]);
         let lanes = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
         let live = _mm256_cmp_ps::<_CMP_LT_OQ>(lanes, _mm256_set1_ps(n as f32));
-        let raw = [lower(x), lower(y), lower(z), upper(x), upper(y), upper(z)];
+        let raw = transpose(&r);
         let empty = [
             _mm256_set1_ps(f32::INFINITY),
             _mm256_set1_ps(f32::NEG_INFINITY),
