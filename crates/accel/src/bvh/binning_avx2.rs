@@ -5,8 +5,8 @@
 //! fixed costs ruled: the sweep walked `2 (bins - 1)` planes per axis one box at a time (a
 //! union, an area and a select each), more work than binning the primitives. Here a bin is
 //! one 256-bit row (its lower corner, then its upper corner negated, so that one `min` grows
-//! both), the rows of an axis are transposed into planes of eight bins, and the prefix and
-//! suffix boxes come out of three shift-and-`min` steps, as in `split_sorted`'s sweep.
+//! both); an axis's prefix and suffix boxes are built a row at a time and transposed into
+//! planes of eight bins, whose areas and costs are then computed eight planes at a time.
 //!
 //! The decisions are those of the portable passes in `split_binned`, bit for bit: the same
 //! bins (a union does not depend on order), the same areas and costs by the same operations
@@ -20,7 +20,7 @@ use core::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _mm_add_ps, _mm_cvtsi128_si32, _mm_cvttps_epi32,
     _mm_extract_epi32, _mm_max_ps, _mm_min_ps, _mm_mul_ps, _mm_setzero_ps, _mm_sub_ps,
     _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_blend_epi32, _mm256_blend_ps,
-    _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_cvtepi32_ps,
+    _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_cvtepi32_ps, _mm256_cvtss_f32,
     _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps,
     _mm256_movemask_ps, _mm256_mul_ps, _mm256_permute2f128_ps, _mm256_permutevar8x32_epi32,
     _mm256_permutevar8x32_ps, _mm256_set1_ps, _mm256_setr_epi32, _mm256_setr_ps, _mm256_setzero_ps,
@@ -184,6 +184,8 @@ fn sweep<const B: usize>(rows: &[[__m256; B]; 3], counts: &[[u32; B]; 3], n: usi
     let zero = _mm256_setzero_ps();
     let total = _mm256_set1_ps(n as f32);
     let mut best = (f32::INFINITY, 0usize, 0usize);
+    // The best plane's two sides, as rows: its prefix row and the next bin's suffix row.
+    let mut best_sides = [fill; 2];
     for axis in 0..3 {
         // The prefix and suffix boxes, a row (both corners) at a time: one `min` per bin and
         // direction, where scans of the transposed components took six registers through
@@ -250,35 +252,23 @@ fn sweep<const B: usize>(rows: &[[__m256; B]; 3], counts: &[[u32; B]; 3], n: usi
             );
             costs[g] = _mm256_blendv_ps(inf, cost, valid);
         }
-        let m = if B == 16 {
+        let m = broadcast_min(if B == 16 {
             _mm256_min_ps(costs[0], costs[1])
         } else {
             costs[0]
-        };
-        let m = _mm256_min_ps(
-            m,
-            _mm256_permutevar8x32_ps(m, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)),
-        );
-        let m = _mm256_min_ps(
-            m,
-            _mm256_permutevar8x32_ps(m, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5)),
-        );
-        let m = _mm256_min_ps(
-            m,
-            _mm256_permutevar8x32_ps(m, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6)),
-        );
-        let mut least = [0.0f32; 8];
-        // SAFETY: eight floats into eight floats.
-        unsafe { _mm256_storeu_ps(least.as_mut_ptr(), m) };
-        if least[0] < best.0 {
+        });
+        let least = _mm256_cvtss_f32(m);
+        if least < best.0 {
             let at = |g: usize| _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(costs[g], m)) as u32;
             let mask = if B == 16 { at(0) | (at(1) << 8) } else { at(0) };
-            best = (least[0], axis, mask.trailing_zeros() as usize);
+            let plane = mask.trailing_zeros() as usize;
+            best = (least, axis, plane);
+            // A finite cost has primitives right of the plane, so bin `plane + 1` exists.
+            best_sides = [prefix_rows[plane], suffix_rows[plane + 1]];
         }
     }
     let (cost, axis, plane) = best;
-    let side = |bins: &[__m256]| {
-        let row = bins.iter().fold(fill, |acc, &r| _mm256_min_ps(acc, r));
+    let side = |row: __m256| {
         let mut lanes = [0.0f32; 8];
         // SAFETY: eight floats into eight floats.
         unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), row) };
@@ -287,11 +277,28 @@ fn sweep<const B: usize>(rows: &[[__m256; B]; 3], counts: &[[u32; B]; 3], n: usi
             max: -Vec3A::new(lanes[4], lanes[5], lanes[6]),
         }
     };
-    let (left, right) = rows[axis].split_at(plane + 1);
     BinnedPlane {
         cost,
         axis,
         plane,
-        sides: [side(left), side(right)],
+        sides: best_sides.map(side),
     }
+}
+
+/// The least of eight lanes, in every lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) fn broadcast_min(v: __m256) -> __m256 {
+    let v = _mm256_min_ps(
+        v,
+        _mm256_permutevar8x32_ps(v, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)),
+    );
+    let v = _mm256_min_ps(
+        v,
+        _mm256_permutevar8x32_ps(v, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5)),
+    );
+    _mm256_min_ps(
+        v,
+        _mm256_permutevar8x32_ps(v, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6)),
+    )
 }

@@ -172,7 +172,7 @@ fn split_with<const B: usize, const SUMS: bool>(
         1
     };
     // Where the CPU has AVX2, both passes in wide registers (see `binning_avx2`): the same
-    // decision, 5-13% off a million-triangle build (BENCHMARKS.md).
+    // decision, 9-17% off a million-triangle build (BENCHMARKS.md).
     #[cfg(target_arch = "x86_64")]
     let found = if SUMS && stride == 1 && (B == 8 || B == 16) && binning_avx2::available() {
         wide_plane::<B, SUMS>(prims, &map)
@@ -190,18 +190,8 @@ fn split_with<const B: usize, const SUMS: bool>(
         }
         return SplitOutcome::NoPositionalSplit;
     }
-    // A sample's bins hold only the sampled boxes: the children get the node's box, and the
-    // driver tightens it once they are built (`NodeBounds::tight`).
-    let sides = (stride == 1).then_some(found.sides);
-    let args = (
-        prims,
-        node_bounds,
-        centroid_bounds,
-        n / stride,
-        config,
-        may_stop,
-    );
-    split_at_plane::<SUMS>(args, &map, (found.cost, found.axis, found.plane), sides)
+    let args = (prims, node_bounds, centroid_bounds, bins, config, may_stop);
+    split_at_plane::<SUMS>(args, &map, &found, n / stride)
 }
 
 /// The cheapest plane the bins found: `area(L) n(L) + area(R) n(R)` over the binned
@@ -313,20 +303,20 @@ fn portable_plane<const B: usize, const SUMS: bool>(
     }
 }
 
-/// The rest of a binned split once its plane is chosen (`(cost, axis, plane)`, a finite cost
-/// over the `binned` primitives, which `args` gives in place of the bin count): the leaf
-/// verdict, the partition, and the children's bounds. `sides` are the children's boxes, `None` where only a sample was
-/// binned.
+/// The rest of a binned split once its plane `found` is chosen (its cost finite, over the
+/// `binned` primitives, fewer than the node's for a sample): the leaf verdict, the partition,
+/// and the children's bounds.
 #[inline(always)]
 fn split_at_plane<const SUMS: bool>(
-    (prims, node_bounds, centroid_bounds, binned, config, may_stop): SplitArgs<'_>,
+    (prims, node_bounds, centroid_bounds, _, config, may_stop): SplitArgs<'_>,
     map: &BinMap<SUMS>,
-    (cost, axis, plane): (f32, usize, usize),
-    sides: Option<[Aabb; 2]>,
+    found: &BinnedPlane,
+    binned: usize,
 ) -> SplitOutcome {
+    let (axis, plane) = (found.axis, found.plane);
     let n = prims.len();
     // A sample's counts, scaled to the node's.
-    let cost = cost * (n as f32 / binned as f32);
+    let cost = found.cost * (n as f32 / binned as f32);
     if may_stop && leaf_is_cheaper(config, n, cost, node_bounds) {
         return SplitOutcome::Leaf;
     }
@@ -339,8 +329,14 @@ fn split_at_plane<const SUMS: bool>(
         (BinMap::<SUMS>::point_on(p, axis) - o) * sc < limit
     });
     debug_assert!(mid > 0 && mid < prims.len());
-    let sampled = sides.is_none();
-    let boxes = sides.unwrap_or([*node_bounds; 2]);
+    // A sample's bins hold only the sampled boxes: the children get the node's box, and the
+    // driver tightens it once they are built (`NodeBounds::tight`).
+    let sampled = binned < n;
+    let boxes = if sampled {
+        [*node_bounds; 2]
+    } else {
+        found.sides
+    };
     // The points' coordinate on `axis` at the plane, widened by a few ulps of the terms that
     // computed it so that no point classified to a side lies beyond its side's bound (one
     // that did would only be clamped into an end bin of the next level).

@@ -123,7 +123,7 @@ fn sweep_axis_portable(records: &[BuildPrim; MAX_PRIMS], n: usize, axis: usize) 
 use avx2::best_plane_avx2;
 
 mod avx2 {
-    use super::super::binning_avx2::transpose;
+    use super::super::binning_avx2::{broadcast_min, transpose};
     use super::{AxisPlane, BuildPrim, MAX_PRIMS};
     use core::arch::x86_64::{
         __m256, __m256i, _CMP_EQ_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_ps, _mm256_and_ps,
@@ -315,12 +315,7 @@ mod avx2 {
         let valid = _mm256_and_ps(inside, _mm256_cmp_ps::<_CMP_LT_OQ>(keys, next_keys));
         let cost = _mm256_blendv_ps(inf, cost, valid);
         // The least cost, broadcast, then its first lane.
-        let m = _mm256_min_ps(
-            cost,
-            _mm256_permutevar8x32_ps(cost, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)),
-        );
-        let m = _mm256_min_ps(m, _mm256_permutevar8x32_ps(m, p2));
-        let m = _mm256_min_ps(m, _mm256_permutevar8x32_ps(m, p1));
+        let m = broadcast_min(cost);
         let first = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(cost, m)).trailing_zeros();
         let mut order_lanes = [0i32; MAX_PRIMS];
         let mut cost_lanes = [0.0f32; MAX_PRIMS];
