@@ -143,25 +143,29 @@ impl WatertightRay {
         let zero = Vec4::ZERO;
         let exact_zero = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask();
 
-        let any_negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-        let any_positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        // Lanes with no edge function of zero (the others take the single test below): a
+        // lane is inside when its three signs agree, so sign bits compared stand for the
+        // single test's six comparisons, and `det` (a sum of three nonzero values of one
+        // sign) cannot be zero. A NaN edge function (unused lanes are NaN) makes `det`, and
+        // so `t`, NaN, which the range test rejects. The same verdicts as the single test:
+        // rays on the 1M-triangle scene ran 1-3% faster (BENCHMARKS.md).
         let det = u + v + w;
-        // `det != 0` is false for NaN too, which rejects unused (NaN) lanes.
-        let mut inside = !(any_negative & any_positive) & det.cmpne(zero) & det.cmpeq(det);
-        let front = det.cmpgt(zero);
+        let mixed_signs = sign_differences(u, v) | sign_differences(v, w);
+        let back = det.is_negative_bitmask();
+        let mut inside = !mixed_signs;
         if backfaces == Backfaces::Cull {
-            inside &= front;
+            inside &= !back;
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
         let in_range = t.cmpge(Vec4::splat(self.t_min)) & t.cmple(Vec4::splat(self.t_max));
         let mut hits = Triangle4Hits {
-            mask: (inside & in_range).bitmask() & !exact_zero,
+            mask: inside & in_range.bitmask() & !exact_zero,
             t: t.to_array(),
             u: (v * inv_det).to_array(),
             v: (w * inv_det).to_array(),
-            front: front.bitmask(),
+            front: !back & 0xF,
         };
         let mut fallback = exact_zero;
         while fallback != 0 {
@@ -177,5 +181,23 @@ impl WatertightRay {
             }
         }
         hits
+    }
+}
+
+/// Bit `i` set when lanes `i` of `a` and `b` differ in their sign bits.
+#[inline(always)]
+fn sign_differences(a: Vec4, b: Vec4) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{_mm_movemask_ps, _mm_xor_ps};
+        // SAFETY: SSE is part of the x86-64 baseline.
+        unsafe { _mm_movemask_ps(_mm_xor_ps(a.into(), b.into())) as u32 }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let (a, b) = (a.to_array(), b.to_array());
+        (0..4).fold(0, |m, i| {
+            m | (((a[i].to_bits() ^ b[i].to_bits()) >> 31) << i)
+        })
     }
 }
