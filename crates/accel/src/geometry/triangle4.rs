@@ -117,7 +117,7 @@ impl WatertightRay {
     /// order, as [`WatertightRay::intersect_vertices`] on each lane, so a lane's result is
     /// bit-for-bit the single test's. Lanes with an edge function of exactly zero take the
     /// single test, with its double-precision fallback.
-    #[inline]
+    #[inline(always)]
     pub fn intersect4(&self, tris: &Triangle4, backfaces: Backfaces) -> Triangle4Hits {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
         let o = self.origin.to_array();
@@ -167,10 +167,28 @@ impl WatertightRay {
             v: (w * inv_det).to_array(),
             front: !back & 0xF,
         };
-        let mut fallback = exact_zero;
-        while fallback != 0 {
-            let lane = fallback.trailing_zeros() as usize;
-            fallback &= fallback - 1;
+        if exact_zero != 0 {
+            self.retest_lanes(tris, backfaces, exact_zero, &mut hits);
+        }
+        hits
+    }
+
+    /// The single test on the lanes of `lanes` (those with an edge function of exactly zero,
+    /// rare), its answers written over theirs in `hits`. Out of line, so that the four-lane
+    /// test inlined into a walk stays small.
+    #[cold]
+    #[inline(never)]
+    fn retest_lanes(
+        &self,
+        tris: &Triangle4,
+        backfaces: Backfaces,
+        lanes: u32,
+        hits: &mut Triangle4Hits,
+    ) {
+        let mut lanes = lanes;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
             let [a, b, c] = tris.get(lane);
             if let Some(h) = self.intersect_vertices(a, b, c, backfaces) {
                 hits.mask |= 1 << lane;
@@ -180,7 +198,6 @@ impl WatertightRay {
                 hits.front = (hits.front & !(1 << lane)) | (u32::from(h.front_face) << lane);
             }
         }
-        hits
     }
 }
 

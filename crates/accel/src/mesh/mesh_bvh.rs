@@ -330,16 +330,22 @@ impl MeshBvh {
     pub fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
         let mut wt = WatertightRay::new(ray);
         let mut best: Option<(u32, usize, crate::TriangleHit)> = None;
-        self.tree.cast_ray(ray, |packet, r| {
-            wt.set_t_max(r.t_max);
-            let (lane, h) = wt
-                .intersect4(self.packets.corners4(packet), backfaces)
-                .closest()?;
-            if best.is_none_or(|(_, _, b)| h.t < b.t) {
-                best = Some((packet, lane, h));
-            }
-            Some(h.t)
-        })?;
+        self.tree.cast_ray(
+            ray,
+            // Inlined into the walk, so that the 4-lane test is compiled with it, with AVX2
+            // where the walk is (see `bvh::wide::ray::visit_ray`).
+            #[inline(always)]
+            |packet, r| {
+                wt.set_t_max(r.t_max);
+                let (lane, h) = wt
+                    .intersect4(self.packets.corners4(packet), backfaces)
+                    .closest()?;
+                if best.is_none_or(|(_, _, b)| h.t < b.t) {
+                    best = Some((packet, lane, h));
+                }
+                Some(h.t)
+            },
+        )?;
         best.map(|(packet, lane, h)| self.hit_record(packet, lane, h))
     }
 
@@ -347,9 +353,12 @@ impl MeshBvh {
     pub fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
         let wt = WatertightRay::new(ray);
         self.tree
-            .cast_ray_any(ray, |packet, _| {
-                wt.intersect4(self.packets.corners4(packet), backfaces).mask != 0
-            })
+            .cast_ray_any(
+                ray,
+                // Inlined into the walk (see `cast_ray`).
+                #[inline(always)]
+                |packet, _| wt.intersect4(self.packets.corners4(packet), backfaces).mask != 0,
+            )
             .is_some()
     }
 

@@ -69,17 +69,23 @@ where
 {
     let mut ray = *ray;
     let mut best: Option<RayHit> = None;
-    walk.walk_ray_announcing(&mut ray, announce, |p, ray| {
-        if let Some(t) = hit(p, ray)
-            && t >= ray.t_min
-            && t <= ray.t_max
-            && best.is_none_or(|b| t < b.t)
-        {
-            ray.t_max = t;
-            best = Some(RayHit { primitive: p, t });
-        }
-        ControlFlow::Continue(())
-    });
+    walk.walk_ray_announcing(
+        &mut ray,
+        announce,
+        // Inlined into the walk, so that `hit` is compiled with it (see `visit_ray`).
+        #[inline(always)]
+        |p, ray| {
+            if let Some(t) = hit(p, ray)
+                && t >= ray.t_min
+                && t <= ray.t_max
+                && best.is_none_or(|b| t < b.t)
+            {
+                ray.t_max = t;
+                best = Some(RayHit { primitive: p, t });
+            }
+            ControlFlow::Continue(())
+        },
+    );
     best
 }
 
@@ -91,13 +97,18 @@ where
 {
     let mut ray = *ray;
     let mut found = None;
-    walk.walk_ray_any_order(&mut ray, |p, ray| {
-        if hit(p, ray) {
-            found = Some(p);
-            return ControlFlow::Break(());
-        }
-        ControlFlow::Continue(())
-    });
+    walk.walk_ray_any_order(
+        &mut ray,
+        // Inlined into the walk, so that `hit` is compiled with it (see `visit_ray`).
+        #[inline(always)]
+        |p, ray| {
+            if hit(p, ray) {
+                found = Some(p);
+                return ControlFlow::Break(());
+            }
+            ControlFlow::Continue(())
+        },
+    );
     found
 }
 
@@ -109,14 +120,19 @@ where
 {
     let start = out.len();
     let mut ray = *ray;
-    walk.walk_ray(&mut ray, |p, ray| {
-        if let Some(t) = hit(p, ray)
-            && t >= ray.t_min
-            && t <= ray.t_max
-        {
-            out.push(RayHit { primitive: p, t });
-        }
-        ControlFlow::Continue(())
-    });
+    walk.walk_ray(
+        &mut ray,
+        // Inlined into the walk, so that `hit` is compiled with it (see `visit_ray`).
+        #[inline(always)]
+        |p, ray| {
+            if let Some(t) = hit(p, ray)
+                && t >= ray.t_min
+                && t <= ray.t_max
+            {
+                out.push(RayHit { primitive: p, t });
+            }
+            ControlFlow::Continue(())
+        },
+    );
     sort_hits(&mut out[start..]);
 }
