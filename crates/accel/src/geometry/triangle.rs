@@ -109,15 +109,24 @@ impl WatertightRay {
     /// Precomputes the axis permutation and shear for a ray.
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.direction;
-        let kz = d.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
+        // Arrays and selects, not `Vec3A::max_position` and `Vec3A` indexed by a run-time axis
+        // (each a `match`): on random directions their branches mispredicted, and preparing a
+        // ray took 14 ns, a tenth of a whole shadow ray's time on the 1M-triangle scene.
+        let d = ray.direction.to_array();
+        let a = ray.direction.abs().to_array();
+        // The first of the largest components (`max_position`'s rule; NaN picks x).
+        let kz = if a[1] > a[0] { 1 } else { 0 };
+        let kz = if a[2] > a[kz] { 2 } else { kz };
+        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
         // A negative dominant axis mirrors the sheared space; swapping x and y undoes the
         // mirror so front faces stay front faces.
-        if d[kz] < 0.0 {
-            core::mem::swap(&mut kx, &mut ky);
-        }
+        let (kx, ky) = if d[kz] < 0.0 {
+            (after, next)
+        } else {
+            (next, after)
+        };
+        // One vector division: each lane is the scalar quotient, to the bit.
+        let shear = Vec3A::new(d[kx], d[ky], 1.0) / Vec3A::splat(d[kz]);
         Self {
             origin: ray.origin,
             t_min: ray.t_min,
@@ -125,9 +134,9 @@ impl WatertightRay {
             kx,
             ky,
             kz,
-            shear_x: d[kx] / d[kz],
-            shear_y: d[ky] / d[kz],
-            shear_z: 1.0 / d[kz],
+            shear_x: shear.x,
+            shear_y: shear.y,
+            shear_z: shear.z,
         }
     }
 
