@@ -113,10 +113,11 @@ impl Triangle4Hits {
 }
 
 impl WatertightRay {
-    /// The watertight test against four triangles at once: the same operations, in the same
-    /// order, as [`WatertightRay::intersect_vertices`] on each lane, so a lane's result is
-    /// bit-for-bit the single test's. Lanes with an edge function of exactly zero take the
-    /// single test, with its double-precision fallback.
+    /// The watertight test against four triangles at once: the same arithmetic, in the same
+    /// order, as [`WatertightRay::intersect_vertices`] on each lane, and verdicts that decide
+    /// as its comparisons do, so a lane's result is bit-for-bit the single test's. Lanes with
+    /// an edge function of exactly zero take the single test, with its double-precision
+    /// fallback.
     #[inline(always)]
     pub fn intersect4(&self, tris: &Triangle4, backfaces: Backfaces) -> Triangle4Hits {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
