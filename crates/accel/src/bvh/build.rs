@@ -118,22 +118,40 @@ pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode
     if config.split == SplitStrategy::Lbvh {
         return lbvh::build_nodes(bounds, config);
     }
-    let mut prims = collect_prims(bounds);
-    let nodes = build_subtree(&mut prims, config, 0, 0);
+    let (mut prims, root) = collect_prims(bounds);
+    if prims.is_empty() {
+        return (Vec::new(), Vec::new());
+    }
+    let nodes = build_subtree_within(&mut prims, root, config, 0, 0);
     (nodes, prims.iter().map(BuildPrim::index).collect())
 }
 
-pub(super) fn collect_prims(bounds: &[Aabb]) -> Vec<BuildPrim> {
+/// The build records of the valid boxes of `bounds`, and their bounds.
+///
+/// Why the bounds here: as a pass of their own, the root's box and centroid bounds read every
+/// record once more, 3.8 ms of a 164 ms million-triangle build; folded into the pass that
+/// writes the records, they cost next to nothing (builds 0-3% faster, `BENCHMARKS.md`).
+pub(super) fn collect_prims(bounds: &[Aabb]) -> (Vec<BuildPrim>, NodeBounds) {
     assert!(
         bounds.len() < u32::MAX as usize,
         "a BVH holds at most u32::MAX - 1 primitives"
     );
-    bounds
+    let mut root = NodeBounds {
+        node: Aabb::EMPTY,
+        centroids: Aabb::EMPTY,
+        tight: true,
+    };
+    let prims = bounds
         .iter()
         .enumerate()
         .filter(|(_, b)| b.is_valid())
-        .map(|(i, b)| BuildPrim::new(*b, i as u32))
-        .collect()
+        .map(|(i, b)| {
+            root.node = root.node.union(b);
+            root.centroids = root.centroids.grow(centroid(b));
+            BuildPrim::new(*b, i as u32)
+        })
+        .collect();
+    (prims, root)
 }
 
 /// A node's box and the bounds of its primitives' centroids: what deciding its split starts

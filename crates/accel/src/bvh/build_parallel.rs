@@ -21,11 +21,10 @@ pub(super) fn build_nodes_parallel(
     if let SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh = config.split {
         return super::build::build_nodes(bounds, config);
     }
-    let mut prims = collect_prims(bounds);
+    let (mut prims, bounds) = collect_prims(bounds);
     if prims.is_empty() {
         return (Vec::new(), Vec::new());
     }
-    let bounds = NodeBounds::of(&prims);
     let nodes = build_parallel(&mut prims, bounds, config, 0, 0);
     (nodes, prims.iter().map(BuildPrim::index).collect())
 }
