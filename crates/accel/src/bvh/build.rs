@@ -136,18 +136,13 @@ pub(super) fn collect_prims(bounds: &[Aabb]) -> (Vec<BuildPrim>, NodeBounds) {
         bounds.len() < u32::MAX as usize,
         "a BVH holds at most u32::MAX - 1 primitives"
     );
-    let mut root = NodeBounds {
-        node: Aabb::EMPTY,
-        centroids: Aabb::EMPTY,
-        tight: true,
-    };
+    let mut root = NodeBounds::EMPTY;
     let prims = bounds
         .iter()
         .enumerate()
         .filter(|(_, b)| b.is_valid())
         .map(|(i, b)| {
-            root.node = root.node.union(b);
-            root.centroids = root.centroids.grow(centroid(b));
+            root.include(b);
             BuildPrim::new(*b, i as u32)
         })
         .collect();
@@ -167,20 +162,27 @@ pub(super) struct NodeBounds {
 }
 
 impl NodeBounds {
+    /// The bounds of no primitive, tight.
+    const EMPTY: Self = Self {
+        node: Aabb::EMPTY,
+        centroids: Aabb::EMPTY,
+        tight: true,
+    };
+
     /// The bounds of `prims`, by a pass over them.
     pub(super) fn of(prims: &[BuildPrim]) -> Self {
-        let mut node = Aabb::EMPTY;
-        let mut centroids = Aabb::EMPTY;
+        let mut bounds = Self::EMPTY;
         for p in prims {
-            let b = p.bounds();
-            node = node.union(&b);
-            centroids = centroids.grow(centroid(&b));
+            bounds.include(&p.bounds());
         }
-        Self {
-            node,
-            centroids,
-            tight: true,
-        }
+        bounds
+    }
+
+    /// Grows the bounds by a primitive's box and its centroid.
+    #[inline(always)]
+    fn include(&mut self, b: &Aabb) {
+        self.node = self.node.union(b);
+        self.centroids = self.centroids.grow(centroid(b));
     }
 }
 

@@ -183,10 +183,9 @@ impl WatertightRay {
         &self,
         tris: &Triangle4,
         backfaces: Backfaces,
-        lanes: u32,
+        mut lanes: u32,
         hits: &mut Triangle4Hits,
     ) {
-        let mut lanes = lanes;
         while lanes != 0 {
             let lane = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
