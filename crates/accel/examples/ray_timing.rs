@@ -24,6 +24,11 @@
 //! pre-split with budget `B`; `sbvh` or `sbvh=budget:bins:overlap:traversal`: the spatial-split build,
 //! `MeshBvh::with_spatial_splits`) adds `MeshBvh`s built other ways.
 //!
+//! `InstancedScene` and `InstancedScene(sbvh)` trace the same triangles as a two-level scene:
+//! one bunny mesh BVH (`MeshBvh::new`, or the spatial-split build) under each copy's transform,
+//! and the large triangles as one more mesh in place, or, with `LOOSE_CELLS=n`, as one mesh
+//! per cell of an n x n x n grid over the scene (instances whose boxes overlap).
+//!
 //! tinybvh (C++) joins every round when `TINYBVH_PEER` names the binary that
 //! `benches/peers/tinybvh.sh` builds, traced in the layouts `TINYBVH_LAYOUTS` lists
 //! (comma-separated; `bvh8_cpu` unless set; also `bvh4_cpu`, `bvh8_cpu_hq`):
@@ -37,13 +42,14 @@
 mod common;
 
 use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
-use accel::mesh::{MeshBvh, SpatialSplits};
+use accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
 use accel::{
     Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, SplitStrategy, Triangle,
     WatertightRay,
 };
-use glam::Vec3A;
+use glam::{Affine3A, Vec3A};
 use obvhs::BvhBuildParams;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 const RAYS: usize = 20_000;
@@ -195,6 +201,80 @@ fn mesh_tracer<'a>(mesh: MeshBvh) -> Tracer<'a> {
     })
 }
 
+/// The scene as two levels: one bunny mesh BVH under every copy's transform, and the large
+/// triangles as one more mesh in place; each mesh built by `MeshBvh::new`, or with spatial
+/// splits when `splits` is given.
+fn instanced_scene(
+    parts: &common::InstancedTriangles,
+    splits: Option<&SpatialSplits>,
+) -> InstancedScene {
+    let build = |tris: &[Triangle]| {
+        let vertices: Vec<glam::Vec3> = tris
+            .iter()
+            .flat_map(|t| t.vertices.map(glam::Vec3::from))
+            .collect();
+        let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+        Arc::new(
+            match splits {
+                Some(s) => {
+                    MeshBvh::with_spatial_splits(&vertices, &indices, &BuildConfig::default(), s)
+                }
+                None => MeshBvh::new(&vertices, &indices),
+            }
+            .expect("a triangle list"),
+        )
+    };
+    let bunny = build(&parts.mesh);
+    let mut instances: Vec<Instance> = parts
+        .placements
+        .iter()
+        .map(|m| Instance {
+            mesh: bunny.clone(),
+            world_from_local: Affine3A::from_mat4(*m),
+        })
+        .collect();
+    // The large triangles as one mesh, or split by a grid of `cells` a side over the scene
+    // cube (`LOOSE_CELLS`): instances whose boxes overlap.
+    let cells = loose_cells();
+    let mut groups: Vec<Vec<Triangle>> = vec![Vec::new(); cells * cells * cells];
+    for t in &parts.loose {
+        let cell = ((t.aabb().center() / common::TRI_EXTENT * 0.5 + 0.5) * cells as f32)
+            .as_uvec3()
+            .min(glam::UVec3::splat(cells as u32 - 1));
+        groups[(cell.x as usize * cells + cell.y as usize) * cells + cell.z as usize].push(*t);
+    }
+    for group in groups.iter().filter(|g| !g.is_empty()) {
+        instances.push(Instance {
+            mesh: build(group),
+            world_from_local: Affine3A::IDENTITY,
+        });
+    }
+    InstancedScene::new(instances)
+}
+
+/// Cells a side of the grid that splits the large triangles into instances: `LOOSE_CELLS`,
+/// 1 (one mesh) unless set.
+fn loose_cells() -> usize {
+    std::env::var("LOOSE_CELLS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(1, |c: usize| c.max(1))
+}
+
+fn scene_tracer<'a>(scene: InstancedScene) -> Tracer<'a> {
+    Box::new(move |set, i| {
+        if set.any_hit {
+            scene
+                .cast_ray_any(&set.ours[i], Backfaces::Include)
+                .then_some(0.0)
+        } else {
+            scene
+                .cast_ray(&set.ours[i], Backfaces::Include)
+                .map(|h| h.hit.t)
+        }
+    })
+}
+
 /// How many rays of each set every contender's answers are checked on.
 const CHECKED_RAYS: usize = 2_000;
 
@@ -233,7 +313,8 @@ fn main() {
         .and_then(|a| a.parse().ok())
         .unwrap_or(11);
     let only = std::env::args().nth(2).unwrap_or_default();
-    let tris = common::triangle_scene(1_000_000, 2);
+    let parts = common::instanced_triangle_scene(1_000_000, 2);
+    let tris = parts.flatten();
     let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
     let vertices: Vec<glam::Vec3> = tris
         .iter()
@@ -357,6 +438,13 @@ fn main() {
         };
         let mesh = MeshBvh::with_config(&vertices, &indices, &config).expect("a triangle list");
         contenders.push((format!("MeshBvh({c})"), mesh_tracer(mesh), false));
+    }
+    for (name, splits) in [
+        ("InstancedScene", None),
+        ("InstancedScene(sbvh)", Some(SpatialSplits::default())),
+    ] {
+        let scene = instanced_scene(&parts, splits.as_ref());
+        contenders.push((name.into(), scene_tracer(scene), false));
     }
     let bvh = Bvh::build(&boxes, &BuildConfig::default());
     contenders.push((
