@@ -382,6 +382,15 @@ fn two_level_scene_matches_brute_force() {
     });
     let scene = InstancedScene::new(instances);
     assert_eq!(scene.rejected_instances(), &[200]);
+    // One instance a leaf: the walk enters every instance of a leaf whose box it hits.
+    for node in scene.top_level().nodes() {
+        for slot in (0..node.child.len()).filter(|&s| node.is_used(s) && node.is_leaf(s)) {
+            assert_eq!(
+                node.count[slot], 1,
+                "a top-level leaf holds several instances"
+            );
+        }
+    }
     let mut all = Vec::new();
     for _ in 0..1500 {
         let ray = random_ray(&mut rng, 60.0);
