@@ -201,6 +201,16 @@ fn mesh_tracer<'a>(mesh: MeshBvh) -> Tracer<'a> {
     })
 }
 
+/// Triangles as a mesh: three vertices each, indexed in order.
+fn triangle_list(tris: &[Triangle]) -> (Vec<glam::Vec3>, Vec<u32>) {
+    let vertices: Vec<glam::Vec3> = tris
+        .iter()
+        .flat_map(|t| t.vertices.map(glam::Vec3::from))
+        .collect();
+    let indices = (0..vertices.len() as u32).collect();
+    (vertices, indices)
+}
+
 /// The scene as two levels: one bunny mesh BVH under every copy's transform, and the large
 /// triangles as one more mesh in place; each mesh built by `MeshBvh::new`, or with spatial
 /// splits when `splits` is given.
@@ -209,11 +219,7 @@ fn instanced_scene(
     splits: Option<&SpatialSplits>,
 ) -> InstancedScene {
     let build = |tris: &[Triangle]| {
-        let vertices: Vec<glam::Vec3> = tris
-            .iter()
-            .flat_map(|t| t.vertices.map(glam::Vec3::from))
-            .collect();
-        let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+        let (vertices, indices) = triangle_list(tris);
         Arc::new(
             match splits {
                 Some(s) => {
@@ -316,11 +322,7 @@ fn main() {
     let parts = common::instanced_triangle_scene(1_000_000, 2);
     let tris = parts.flatten();
     let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
-    let vertices: Vec<glam::Vec3> = tris
-        .iter()
-        .flat_map(|t| t.vertices.map(glam::Vec3::from))
-        .collect();
-    let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+    let (vertices, indices) = triangle_list(&tris);
     let started = Instant::now();
     let mesh = MeshBvh::new(&vertices, &indices).expect("a triangle list");
     let split_build = started.elapsed().as_secs_f64();
