@@ -73,7 +73,7 @@ pub(super) fn presplit_triangles(
     let mean_waste = wastes.iter().map(|&w| f64::from(w)).sum::<f64>() / wastes.len().max(1) as f64;
     let worth_cutting = (WORTH_CUTTING * mean_waste) as f32;
     // (triangle, priority) of those worth cutting, in triangle order: few in most meshes that
-    // needs cuts at all, so the budget is shared out over them alone.
+    // need cuts at all, so the budget is shared out over them alone.
     let candidates: Vec<(u32, f32)> = wastes
         .iter()
         .enumerate()
