@@ -116,6 +116,36 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
         self.nodes.len() * core::mem::size_of::<L>() + self.primitive_indices.len() * 4
     }
 
+    /// The expected number of slot boxes a random ray through the tree's box enters (the
+    /// surface area heuristic's count: each used slot's surface area over the root's, summed).
+    /// A measure of how loose the tree is, for deciding when refits have made it worth a
+    /// rebuild: it only compares trees over the same primitives. Zero for an empty tree; every
+    /// slot counts once where the root's box has no area.
+    pub fn slot_area_cost(&self) -> f32 {
+        let root = f64::from(self.bounds.half_area());
+        if root > 0.0 {
+            (self.slot_area_sum() / root) as f32
+        } else {
+            self.nodes
+                .iter()
+                .map(|node| (0..N).filter(|&slot| node.is_used(slot)).count())
+                .sum::<usize>() as f32
+        }
+    }
+
+    /// Every used slot's surface area (half area), summed: the
+    /// [`slot_area_cost`](Self::slot_area_cost) before the division by the root's.
+    pub fn slot_area_sum(&self) -> f64 {
+        self.nodes
+            .iter()
+            .flat_map(|node| {
+                (0..N)
+                    .filter(|&slot| node.is_used(slot))
+                    .map(|slot| f64::from(node.child_aabb(slot).half_area()))
+            })
+            .sum()
+    }
+
     /// Checks that every slot's box contains what is below it and that every valid primitive
     /// of `bounds` is reachable exactly once.
     pub fn validate(&self, bounds: &[Aabb]) -> Result<(), super::validate::ValidationError> {

@@ -13,19 +13,27 @@ const SLOT_BITS: u32 = 4;
 /// Recomputes the slot boxes of node `n` named in `mask` (bit `s`: slot `s`; layouts that
 /// cannot set slots alone get all of them): leaf slots from `bounds_at` (called with each
 /// primitive's position in the leaf order), inner slots from their child node's slots, which
-/// must be refitted already.
+/// must be refitted already. With `AREA`, returns how much the recomputed slots' summed
+/// surface area (half areas) grew; zero otherwise.
 #[inline]
-fn refit_node<const N: usize, L: WideLayout<N>>(
+fn refit_node<const N: usize, const AREA: bool, L: WideLayout<N>>(
     nodes: &mut [L],
     n: usize,
     mask: u32,
     bounds_at: &mut impl FnMut(usize) -> Aabb,
-) {
+) -> f64 {
     let mask = if L::SETS_SLOTS_ALONE {
         mask
     } else {
         (1 << N) - 1
     };
+    let slot_area = |node: &L| -> f64 {
+        (0..N)
+            .filter(|&slot| mask & (1 << slot) != 0 && node.is_used(slot))
+            .map(|slot| f64::from(node.child_aabb(slot).half_area()))
+            .sum()
+    };
+    let before = if AREA { slot_area(&nodes[n]) } else { 0.0 };
     let node = &nodes[n];
     let mut boxes = [Aabb::EMPTY; N];
     for (slot, b) in boxes.iter_mut().enumerate() {
@@ -43,6 +51,12 @@ fn refit_node<const N: usize, L: WideLayout<N>>(
         };
     }
     nodes[n].set_slot_boxes(mask, &boxes);
+    // Read back, not taken from `boxes`: a quantized layout stores them rounded out.
+    if AREA {
+        slot_area(&nodes[n]) - before
+    } else {
+        0.0
+    }
 }
 
 impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
@@ -64,7 +78,7 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// [`primitive_indices`](Self::primitive_indices)) rather than by primitive id.
     pub fn refit_at(&mut self, mut bounds_at: impl FnMut(usize) -> Aabb) {
         for n in (0..self.nodes.len()).rev() {
-            refit_node(&mut self.nodes, n, (1 << N) - 1, &mut bounds_at);
+            refit_node::<N, false, L>(&mut self.nodes, n, (1 << N) - 1, &mut bounds_at);
         }
         self.bounds = self.nodes.first().map_or(Aabb::EMPTY, L::bounds);
     }
@@ -100,8 +114,31 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
         &mut self,
         paths: &mut RefitPaths,
         moved: impl IntoIterator<Item = u32>,
-        mut bounds_at: impl FnMut(usize) -> Aabb,
+        bounds_at: impl FnMut(usize) -> Aabb,
     ) {
+        self.refit_moved_paths::<false>(paths, moved, bounds_at);
+    }
+
+    /// [`refit_moved`](Self::refit_moved), returning how much the sum of every slot's
+    /// surface area (half areas, not divided by the root's) grew: with that sum kept from
+    /// the build, the tree's [`slot_area_cost`](Self::slot_area_cost) follows refits without
+    /// a pass over every node.
+    pub fn refit_moved_area_change(
+        &mut self,
+        paths: &mut RefitPaths,
+        moved: impl IntoIterator<Item = u32>,
+        bounds_at: impl FnMut(usize) -> Aabb,
+    ) -> f64 {
+        self.refit_moved_paths::<true>(paths, moved, bounds_at)
+    }
+
+    fn refit_moved_paths<const AREA: bool>(
+        &mut self,
+        paths: &mut RefitPaths,
+        moved: impl IntoIterator<Item = u32>,
+        mut bounds_at: impl FnMut(usize) -> Aabb,
+    ) -> f64 {
+        let mut growth = 0.0;
         for position in moved {
             let mut at = paths.slot_of_position[position as usize];
             while at != NO_PARENT && !paths.mark(at) {
@@ -116,10 +153,12 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
                 bits &= !(1u64 << b);
                 let n = w * 64 + b;
                 let mask = core::mem::take(&mut paths.dirty_slots[n]);
-                refit_node(&mut self.nodes, n, u32::from(mask), &mut bounds_at);
+                growth +=
+                    refit_node::<N, AREA, L>(&mut self.nodes, n, u32::from(mask), &mut bounds_at);
             }
         }
         self.bounds = self.nodes.first().map_or(Aabb::EMPTY, L::bounds);
+        growth
     }
 }
 
@@ -226,6 +265,48 @@ mod tests {
                         assert_eq!(a.child_aabb(slot), b.child_aabb(slot), "round {round}");
                     }
                 }
+            }
+        }
+    }
+
+    /// The area change a path refit reports keeps the summed slot area equal to a fresh
+    /// count over every node, for the float and the quantized layout (whose stored boxes are
+    /// rounded out), refit after refit.
+    #[test]
+    fn tracked_slot_area_follows_path_refits() {
+        let mut next = crate::test_floats(0x00a4_ea0f_5107);
+        let mut random_box = |scale: f32| {
+            let c = Vec3A::new(next(), next(), next()) * 100.0;
+            Aabb::new(c, c + Vec3A::new(next(), next(), next()) * scale + 0.1)
+        };
+        let mut boxes: Vec<Aabb> = (0..2_000).map(|_| random_box(2.0)).collect();
+        let bvh = Bvh::build(&boxes, &BuildConfig::default());
+        let mut float = Bvh8::from_bvh(&bvh);
+        let mut quantized = crate::bvh::wide::QBvh8::from_bvh(&bvh);
+        let (mut float_paths, mut quantized_paths) =
+            (RefitPaths::of(&float), RefitPaths::of(&quantized));
+        let (mut float_sum, mut quantized_sum) = (float.slot_area_sum(), quantized.slot_area_sum());
+        let order = float.primitive_indices().to_vec();
+        assert_eq!(order, quantized.primitive_indices());
+        for round in 0..6usize {
+            let moved: Vec<u32> = (0..40 * round + 1)
+                .map(|k| ((k * 7_919 + round * 31) % order.len()) as u32)
+                .collect();
+            for &position in &moved {
+                boxes[order[position as usize] as usize] = random_box(6.0);
+            }
+            let at = |k: usize| boxes[order[k] as usize];
+            float_sum += float.refit_moved_area_change(&mut float_paths, moved.clone(), at);
+            quantized_sum +=
+                quantized.refit_moved_area_change(&mut quantized_paths, moved.clone(), at);
+            for (tracked, fresh) in [
+                (float_sum, float.slot_area_sum()),
+                (quantized_sum, quantized.slot_area_sum()),
+            ] {
+                assert!(
+                    (tracked - fresh).abs() <= 1e-9 * fresh,
+                    "round {round}: tracked {tracked}, counted {fresh}"
+                );
             }
         }
     }
