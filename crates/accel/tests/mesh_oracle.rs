@@ -2,7 +2,7 @@
 
 mod scenes;
 
-use accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
+use accel::mesh::{Instance, InstancedScene, MeshBvh, SceneUpdateError, SpatialSplits};
 use accel::{Aabb, Backfaces, BuildConfig, Ray, SplitStrategy, WatertightRay};
 use glam::{Affine3A, Quat, Vec3, Vec3A};
 use scenes::Rng;
@@ -356,46 +356,41 @@ fn random_transform(rng: &mut Rng) -> Affine3A {
     Affine3A::from_scale_rotation_translation(scale, rot, rng.vec3(-40.0, 40.0).into())
 }
 
-#[test]
-fn two_level_scene_matches_brute_force() {
-    let mut rng = Rng::new(8);
-    let meshes = [soup(&mut rng, 300), sphere(12, 16)];
-    let bvhs: Vec<Arc<MeshBvh>> = meshes
-        .iter()
-        .map(|m| Arc::new(MeshBvh::new(&m.vertices, &m.indices).unwrap()))
+/// Where each instance of a scene is: its mesh (an index into the test's meshes) and its
+/// world-from-local transform; `None` where the scene must reject the instance.
+type Placements = Vec<Option<(usize, Affine3A)>>;
+
+/// Closest, any and all hits of `scene` against brute force over every triangle of every
+/// placed instance, on `rays` random rays; the rejected instances, and the top level against
+/// its validator.
+fn check_scene(
+    scene: &InstancedScene,
+    meshes: &[TestMesh],
+    bvhs: &[Arc<MeshBvh>],
+    placed: &Placements,
+    rng: &mut Rng,
+    rays: usize,
+) {
+    let rejected: Vec<u32> = (0..)
+        .zip(placed)
+        .filter_map(|(i, p)| p.is_none().then_some(i))
         .collect();
-    let mut instances = Vec::new();
-    let mut placed = Vec::new();
-    for i in 0..200 {
-        let mi = i % 2;
-        let m = random_transform(&mut rng);
-        instances.push(Instance {
-            mesh: bvhs[mi].clone(),
-            world_from_local: m,
-        });
-        placed.push((mi, m.inverse()));
-    }
-    // A singular instance is rejected, not a panic.
-    instances.push(Instance {
-        mesh: bvhs[0].clone(),
-        world_from_local: Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)),
-    });
-    let scene = InstancedScene::new(instances);
-    assert_eq!(scene.rejected_instances(), &[200]);
-    // One instance a leaf: the walk enters every instance of a leaf whose box it hits.
-    for node in scene.top_level().nodes() {
-        for slot in (0..node.child.len()).filter(|&s| node.is_used(s) && node.is_leaf(s)) {
-            assert_eq!(
-                node.count[slot], 1,
-                "a top-level leaf holds several instances"
-            );
-        }
-    }
+    assert_eq!(scene.rejected_instances(), rejected.as_slice());
+    let boxes: Vec<Aabb> = placed
+        .iter()
+        .map(|p| p.map_or(Aabb::EMPTY, |(mi, m)| bvhs[mi].bounds().transformed(&m)))
+        .collect();
+    scene.top_level().validate(&boxes).unwrap();
+    let inverses: Vec<Option<(usize, Affine3A)>> = placed
+        .iter()
+        .map(|p| p.map(|(mi, m)| (mi, m.inverse())))
+        .collect();
     let mut all = Vec::new();
-    for _ in 0..1500 {
-        let ray = random_ray(&mut rng, 60.0);
+    for _ in 0..rays {
+        let ray = random_ray(rng, 60.0);
         let mut want: Vec<(f32, u32, u32)> = Vec::new();
-        for (i, (mi, inv)) in placed.iter().enumerate() {
+        for (i, p) in inverses.iter().enumerate() {
+            let Some((mi, inv)) = p else { continue };
             let local = ray.transformed(inv);
             want.extend(
                 brute_mesh(&meshes[*mi], &local, Backfaces::Include)
@@ -423,5 +418,148 @@ fn two_level_scene_matches_brute_force() {
             .map(|h| (h.hit.t, h.instance, h.hit.triangle))
             .collect();
         assert_eq!(got_all, want);
+    }
+}
+
+/// A soup and a sphere, each as a mesh BVH.
+fn two_meshes(rng: &mut Rng) -> ([TestMesh; 2], Vec<Arc<MeshBvh>>) {
+    let meshes = [soup(rng, 300), sphere(12, 16)];
+    let bvhs = meshes
+        .iter()
+        .map(|m| Arc::new(MeshBvh::new(&m.vertices, &m.indices).unwrap()))
+        .collect();
+    (meshes, bvhs)
+}
+
+/// A transform that no instance can be placed under.
+fn singular_transform() -> Affine3A {
+    Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0))
+}
+
+#[test]
+fn two_level_scene_matches_brute_force() {
+    let mut rng = Rng::new(8);
+    let (meshes, bvhs) = two_meshes(&mut rng);
+    let mut placed: Placements = (0..200)
+        .map(|i| Some((i % 2, random_transform(&mut rng))))
+        .collect();
+    // A singular instance is rejected, not a panic.
+    placed.push(None);
+    let mut instances: Vec<Instance> = placed
+        .iter()
+        .flatten()
+        .map(|&(mi, m)| Instance {
+            mesh: bvhs[mi].clone(),
+            world_from_local: m,
+        })
+        .collect();
+    instances.push(Instance {
+        mesh: bvhs[0].clone(),
+        world_from_local: singular_transform(),
+    });
+    let scene = InstancedScene::new(instances);
+    // One instance a leaf: the walk enters every instance of a leaf whose box it hits.
+    for node in scene.top_level().nodes() {
+        for slot in (0..node.child.len()).filter(|&s| node.is_used(s) && node.is_leaf(s)) {
+            assert_eq!(
+                node.count[slot], 1,
+                "a top-level leaf holds several instances"
+            );
+        }
+    }
+    check_scene(&scene, &meshes, &bvhs, &placed, &mut rng, 1500);
+}
+
+/// Instances moved, swapped to the other mesh, made singular and placed again, round after
+/// round: every answer stays brute force's, through refits and the rebuilds that changes of
+/// membership make, and an update naming a missing instance changes nothing.
+#[test]
+fn two_level_scene_follows_updates() {
+    let mut rng = Rng::new(21);
+    let (meshes, bvhs) = two_meshes(&mut rng);
+    let count = 150u32;
+    let mut placed: Placements = (0..count as usize)
+        .map(|i| Some((i % 2, random_transform(&mut rng))))
+        .collect();
+    let instance = |mi: usize, m: Affine3A| Instance {
+        mesh: bvhs[mi].clone(),
+        world_from_local: m,
+    };
+    let mut scene = InstancedScene::new(
+        placed
+            .iter()
+            .flatten()
+            .map(|&(mi, m)| instance(mi, m))
+            .collect(),
+    );
+    for round in 0..12 {
+        let mut updates = Vec::new();
+        for _ in 0..=rng.below(30) {
+            let i = rng.below(count);
+            let mi = rng.below(2) as usize;
+            // Rounds 3, 7 and 11 also reject instances (and place rejected ones again);
+            // the others only move them: small steps from where they are, or anywhere.
+            let m = if round % 4 == 3 && rng.below(4) == 0 {
+                singular_transform()
+            } else if let (Some((_, at)), true) = (placed[i as usize], rng.below(2) == 0) {
+                Affine3A::from_translation(rng.vec3(-2.0, 2.0).into()) * at
+            } else {
+                random_transform(&mut rng)
+            };
+            placed[i as usize] = (m != singular_transform()).then_some((mi, m));
+            updates.push((i, instance(mi, m)));
+        }
+        scene.update_instances(updates).unwrap();
+        check_scene(&scene, &meshes, &bvhs, &placed, &mut rng, 150);
+    }
+    let before = scene.top_level().nodes().len();
+    assert_eq!(
+        scene.update_instances([
+            (0, instance(0, Affine3A::IDENTITY)),
+            (count, instance(0, Affine3A::IDENTITY))
+        ]),
+        Err(SceneUpdateError::NoSuchInstance {
+            instance: count,
+            instance_count: count as usize
+        })
+    );
+    assert_eq!(scene.top_level().nodes().len(), before);
+    check_scene(&scene, &meshes, &bvhs, &placed, &mut rng, 150);
+    scene.rebuild_top_level();
+    check_scene(&scene, &meshes, &bvhs, &placed, &mut rng, 150);
+}
+
+/// Every instance scattered anew in one update leaves refits far looser than a fresh build:
+/// the scene rebuilds its top level (as fresh as `InstancedScene::new` makes it), unless told
+/// never to.
+#[test]
+fn loose_top_levels_are_rebuilt() {
+    let mut rng = Rng::new(34);
+    let (_, bvhs) = two_meshes(&mut rng);
+    let scattered = |rng: &mut Rng| -> Vec<Instance> {
+        (0..400)
+            .map(|i| Instance {
+                mesh: bvhs[i % 2].clone(),
+                world_from_local: random_transform(rng),
+            })
+            .collect()
+    };
+    let first = scattered(&mut rng);
+    let second = scattered(&mut rng);
+    let fresh = InstancedScene::new(second.clone())
+        .top_level()
+        .slot_area_cost();
+    for threshold in [InstancedScene::DEFAULT_REBUILD_THRESHOLD, f32::INFINITY] {
+        let mut scene = InstancedScene::new(first.clone());
+        scene.set_rebuild_threshold(threshold);
+        scene
+            .update_instances((0..).zip(second.iter().cloned()))
+            .unwrap();
+        let cost = scene.top_level().slot_area_cost();
+        if threshold.is_finite() {
+            assert_eq!(cost, fresh, "not rebuilt");
+        } else {
+            assert!(cost > fresh * 1.5, "refit only: {cost} against {fresh}");
+        }
     }
 }

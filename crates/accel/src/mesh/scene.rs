@@ -1,5 +1,6 @@
 //! The top level: instances of shared meshes under affine transforms.
 
+use super::scene_update::TopLevelUpkeep;
 use super::{MeshBvh, MeshHit};
 use crate::bvh::wide::Bvh8;
 use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery};
@@ -27,11 +28,33 @@ pub struct InstanceHit {
 }
 
 #[derive(Clone, Debug)]
-struct PlacedInstance {
+pub(super) struct PlacedInstance {
     mesh: Arc<MeshBvh>,
     local_from_world: Affine3A,
     /// Inverse-transpose of the linear part: how normals go from local to world.
     normal_to_world: glam::Mat3A,
+}
+
+impl PlacedInstance {
+    /// The instance ready for rays, and its world box; `None` for a transform that is not
+    /// invertible or not finite.
+    pub(super) fn place(instance: Instance) -> Option<(Self, Aabb)> {
+        let m = instance.world_from_local;
+        let det = m.matrix3.determinant();
+        if !(det.is_finite() && det != 0.0 && m.translation.is_finite()) {
+            return None;
+        }
+        let world_box = instance.mesh.bounds().transformed(&m);
+        let local_from_world = m.inverse();
+        Some((
+            Self {
+                normal_to_world: local_from_world.matrix3.transpose(),
+                local_from_world,
+                mesh: instance.mesh,
+            },
+            world_box,
+        ))
+    }
 }
 
 /// A two-level scene: a top-level BVH over instance boxes, each instance a mesh BVH under a
@@ -44,6 +67,10 @@ struct PlacedInstance {
 ///
 /// Instances whose transform is not invertible or not finite are left out of the tree and
 /// reported by [`InstancedScene::rejected_instances`].
+///
+/// Instances move, or change meshes, through [`InstancedScene::update_instances`], which
+/// refits the top level along the changed instances' paths and rebuilds it once refits have
+/// made it loose.
 ///
 /// ```
 /// use accel::{Backfaces, Ray};
@@ -63,9 +90,13 @@ struct PlacedInstance {
 /// ```
 #[derive(Clone, Debug)]
 pub struct InstancedScene {
-    top: Bvh8,
-    instances: Vec<Option<PlacedInstance>>,
-    rejected: Vec<u32>,
+    pub(super) top: Bvh8,
+    pub(super) instances: Vec<Option<PlacedInstance>>,
+    /// Each instance's world box; [`Aabb::EMPTY`] for a rejected one.
+    pub(super) boxes: Vec<Aabb>,
+    pub(super) rejected: Vec<u32>,
+    /// What keeps the top level up to date as instances change.
+    pub(super) upkeep: TopLevelUpkeep,
 }
 
 impl InstancedScene {
@@ -76,37 +107,21 @@ impl InstancedScene {
         let placed = instances
             .into_iter()
             .enumerate()
-            .map(|(i, inst)| {
-                let m = inst.world_from_local;
-                let det = m.matrix3.determinant();
-                if !(det.is_finite() && det != 0.0 && m.translation.is_finite()) {
+            .map(|(i, instance)| {
+                let placed = PlacedInstance::place(instance);
+                if placed.is_none() {
                     rejected.push(i as u32);
-                    boxes.push(Aabb::EMPTY);
-                    return None;
                 }
-                boxes.push(inst.mesh.bounds().transformed(&m));
-                let local_from_world = m.inverse();
-                Some(PlacedInstance {
-                    normal_to_world: local_from_world.matrix3.transpose(),
-                    local_from_world,
-                    mesh: inst.mesh,
-                })
+                boxes.push(placed.as_ref().map_or(Aabb::EMPTY, |(_, b)| *b));
+                placed.map(|(p, _)| p)
             })
             .collect();
-        // One instance a leaf. Why: the walk calls back for every primitive of a leaf whose
-        // box it hits, with no test of the primitive's own box, and here a call means moving
-        // the ray into the instance and walking its mesh. On the benchmark scene split into
-        // overlapping instances, leaves of up to eight instances (the default) entered 14.3
-        // instances per incoherent ray, one instance a leaf 4.7, and every kind of ray ran
-        // 1.22-1.51x faster (BENCHMARKS.md).
-        let config = BuildConfig {
-            max_leaf_size: 1,
-            ..BuildConfig::default()
-        };
-        let top = Bvh8::from_bvh(&Bvh::build(&boxes, &config));
+        let top = top_level_over(&boxes);
         Self {
+            upkeep: TopLevelUpkeep::new(&top),
             top,
             instances: placed,
+            boxes,
             rejected,
         }
     }
@@ -188,4 +203,20 @@ impl InstancedScene {
     pub fn hit_point(ray: &Ray, hit: &InstanceHit) -> Vec3A {
         ray.at(hit.hit.t)
     }
+}
+
+/// The top level over the instances' world boxes (rejected instances' empty boxes are left
+/// out by the build).
+pub(super) fn top_level_over(boxes: &[Aabb]) -> Bvh8 {
+    // One instance a leaf. Why: the walk calls back for every primitive of a leaf whose box
+    // it hits, with no test of the primitive's own box, and here a call means moving the ray
+    // into the instance and walking its mesh. On the benchmark scene split into overlapping
+    // instances, leaves of up to eight instances (the default) entered 14.3 instances per
+    // incoherent ray, one instance a leaf 4.7, and every kind of ray ran 1.22-1.51x faster
+    // (BENCHMARKS.md).
+    let config = BuildConfig {
+        max_leaf_size: 1,
+        ..BuildConfig::default()
+    };
+    Bvh8::from_bvh(&Bvh::build(boxes, &config))
 }
