@@ -249,12 +249,29 @@ fn instanced_scene(
             .min(glam::UVec3::splat(cells as u32 - 1));
         groups[(cell.x as usize * cells + cell.y as usize) * cells + cell.z as usize].push(*t);
     }
-    for group in groups.iter().filter(|g| !g.is_empty()) {
-        instances.push(Instance {
-            mesh: build(group),
-            world_from_local: Affine3A::IDENTITY,
-        });
+    let started = Instant::now();
+    let loose_meshes: Vec<Arc<MeshBvh>> = groups
+        .iter()
+        .filter(|g| !g.is_empty())
+        .map(|g| build(g))
+        .collect();
+    if let [mesh] = loose_meshes.as_slice() {
+        let name = if splits.is_some() {
+            "InstancedScene(sbvh)"
+        } else {
+            "InstancedScene"
+        };
+        report_build(
+            &format!("{name}, the large triangles' mesh"),
+            mesh,
+            started.elapsed().as_secs_f64(),
+            parts.loose.len(),
+        );
     }
+    instances.extend(loose_meshes.into_iter().map(|mesh| Instance {
+        mesh,
+        world_from_local: Affine3A::IDENTITY,
+    }));
     InstancedScene::new(instances)
 }
 
