@@ -227,16 +227,21 @@ mod tests {
     use crate::{Aabb, BuildConfig, Bvh};
     use glam::Vec3A;
 
+    /// Boxes at random in a cube of side 100, each up to `scale` a side.
+    fn random_boxes(seed: u64) -> impl FnMut(f32) -> Aabb {
+        let mut next = crate::test_floats(seed);
+        move |scale| {
+            let c = Vec3A::new(next(), next(), next()) * 100.0;
+            Aabb::new(c, c + Vec3A::new(next(), next(), next()) * scale + 0.1)
+        }
+    }
+
     /// Refitting the paths above the moved primitives leaves the same node boxes, bit for
     /// bit, as refitting everything; with few movers and with most of them, with leaves of
     /// one primitive and of several; the paths stay usable for the next refit.
     #[test]
     fn path_refit_equals_whole_refit() {
-        let mut next = crate::test_floats(0x7e57_0f4e_5f17);
-        let mut random_box = |scale: f32| {
-            let c = Vec3A::new(next(), next(), next()) * 100.0;
-            Aabb::new(c, c + Vec3A::new(next(), next(), next()) * scale + 0.1)
-        };
+        let mut random_box = random_boxes(0x7e57_0f4e_5f17);
         for max_leaf_size in [1, 4] {
             let mut boxes: Vec<Aabb> = (0..3_000).map(|_| random_box(2.0)).collect();
             let config = BuildConfig {
@@ -274,11 +279,7 @@ mod tests {
     /// rounded out), refit after refit.
     #[test]
     fn tracked_slot_area_follows_path_refits() {
-        let mut next = crate::test_floats(0x00a4_ea0f_5107);
-        let mut random_box = |scale: f32| {
-            let c = Vec3A::new(next(), next(), next()) * 100.0;
-            Aabb::new(c, c + Vec3A::new(next(), next(), next()) * scale + 0.1)
-        };
+        let mut random_box = random_boxes(0x00a4_ea0f_5107);
         let mut boxes: Vec<Aabb> = (0..2_000).map(|_| random_box(2.0)).collect();
         let bvh = Bvh::build(&boxes, &BuildConfig::default());
         let mut float = Bvh8::from_bvh(&bvh);
