@@ -10,8 +10,8 @@
 //! (a game's motion between frames). Median of `frames` frames.
 //!
 //! After those frames, incoherent rays (origins in the cube, random directions) through the
-//! refit top level against the same scene with its top level rebuilt: how far the refits have
-//! let the tree's quality go.
+//! updated scene against a new scene over the same instances: how far the refits have let the
+//! top level's quality go.
 //!
 //! `cargo run --release -p accel --example scene_update_timing [instances] [frames]`
 //! (defaults 10,000 and 100). `REBUILD_THRESHOLD=g` sets the scene's rebuild threshold
@@ -95,7 +95,7 @@ fn main() {
         let moving = (count * percent / 100).max(1);
         let mut scene = InstancedScene::new(placements.iter().map(|&m| instance(m)).collect());
         scene.set_rebuild_threshold(threshold);
-        let (mut refit, mut rebuild) = (Vec::new(), Vec::new());
+        let (mut updated, mut new_scene) = (Vec::new(), Vec::new());
         for _ in 0..frames {
             let updates: Vec<(u32, Instance)> = (0..moving)
                 .map(|_| {
@@ -110,38 +110,38 @@ fn main() {
             scene
                 .update_instances(updates)
                 .expect("indices within the scene");
-            refit.push(started.elapsed().as_secs_f64());
+            updated.push(started.elapsed().as_secs_f64());
             // What a caller without `update_instances` does: a new scene over every instance.
             let everything: Vec<Instance> = placements.iter().map(|&m| instance(m)).collect();
             let started = Instant::now();
             let fresh = InstancedScene::new(everything);
-            rebuild.push(started.elapsed().as_secs_f64());
+            new_scene.push(started.elapsed().as_secs_f64());
             drop(fresh);
         }
-        let rebuilt = InstancedScene::new(placements.iter().map(|&m| instance(m)).collect());
+        let new_one = InstancedScene::new(placements.iter().map(|&m| instance(m)).collect());
         // Alternated, three rounds, so that neither tree has the cache or the machine's
         // quiet phase to itself.
-        let (mut through_refit, mut through_rebuilt) = (Vec::new(), Vec::new());
+        let (mut through_updated, mut through_new) = (Vec::new(), Vec::new());
         for _ in 0..3 {
-            through_refit.push(rays_per_second(&scene, &rays));
-            through_rebuilt.push(rays_per_second(&rebuilt, &rays));
+            through_updated.push(rays_per_second(&scene, &rays));
+            through_new.push(rays_per_second(&new_one, &rays));
         }
         // The mean as well as the median: the frames that rebuild are few, and the median
         // leaves them out.
-        let mean = refit.iter().sum::<f64>() / refit.len() as f64 * 1e3;
-        let (refit, rebuild) = (median(refit) * 1e3, median(rebuild) * 1e3);
-        let (a, b) = (median(through_refit), median(through_rebuilt));
+        let mean = updated.iter().sum::<f64>() / updated.len() as f64 * 1e3;
+        let (updated, new_scene) = (median(updated) * 1e3, median(new_scene) * 1e3);
+        let (a, b) = (median(through_updated), median(through_new));
         println!(
-            "  {percent:>3}% moving ({moving} a frame): {refit:.3} ms (mean {mean:.3}) | \
-             {rebuild:.3} ms ({:.1}x the median, {:.1}x the mean); rays {:.0}k/s through the \
+            "  {percent:>3}% moving ({moving} a frame): {updated:.3} ms (mean {mean:.3}) | \
+             {new_scene:.3} ms ({:.1}x the median, {:.1}x the mean); rays {:.0}k/s through the \
              updated top level, {:.0}k/s through a new one ({:.2}x); slot area cost {:.2} against {:.2}",
-            rebuild / refit,
-            rebuild / mean,
+            new_scene / updated,
+            new_scene / mean,
             a / 1e3,
             b / 1e3,
             a / b,
             scene.top_level().slot_area_cost(),
-            rebuilt.top_level().slot_area_cost(),
+            new_one.top_level().slot_area_cost(),
         );
     }
 }

@@ -170,8 +170,9 @@ impl MeshBvh {
     /// pieces per triangle are added (`0.3`: 30% more references than triangles) where
     /// triangles' boxes waste the most area (Karras and Aila 2013, see `presplit.rs`), and
     /// over triangles larger than the mesh's leaves, each of which counts towards the budget
-    /// as the leaves it spans; `0.0` builds over whole triangles. A triangle cut into pieces sits in every leaf one of them
-    /// reached, so rays test it where it is instead of wherever its box reaches.
+    /// as the leaves it spans; `0.0` builds over whole triangles. A triangle cut into pieces
+    /// sits in every leaf one of them reached, so rays test it where it is instead of
+    /// wherever its box reaches.
     ///
     /// Queries answer as for a tree over whole triangles (each hit once), and refits work;
     /// a refit bounds whole triangles again, so it keeps the tree correct but not the pieces'

@@ -310,13 +310,8 @@ mod tests {
     /// the mean, yet every triangle is a candidate, and each keeps its pieces' cover.
     #[test]
     fn like_triangles_large_against_the_leaves_are_cut() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut unit = crate::test_floats(0x2545_f491_4f6c_dd1d);
+        let mut next = move || unit() * 2.0 - 1.0;
         let tris: Vec<[Vec3A; 3]> = (0..500)
             .map(|_| {
                 let c = Vec3A::new(next(), next(), next()) * 20.0;

@@ -58,6 +58,9 @@ pub(super) struct TopLevelUpkeep {
     refits_fail_from: Option<usize>,
     /// Rebuilds made without a refit since `refits_fail_from` was set.
     direct_rebuilds: u32,
+    /// The indices an update changed: kept between updates, so that a frame's update does
+    /// not allocate.
+    changed: Vec<u32>,
 }
 
 /// After one refit fails to keep a fresh top level, every this many updates that change as
@@ -74,6 +77,7 @@ impl TopLevelUpkeep {
             fresh: true,
             refits_fail_from: None,
             direct_rebuilds: 0,
+            changed: Vec::new(),
         }
     }
 
@@ -119,7 +123,7 @@ impl InstancedScene {
     /// leave the top level 10% looser than when it was built.
     ///
     /// Why 10%: with 10,000 instances of which 10% or all move every frame, rays through
-    /// the top level ran 4-5% slower than through a fresh one, at a mean of 0.23 and 1.19 ms
+    /// the top level ran 4-8% slower than through a fresh one, at a mean of 0.23 and 1.19 ms
     /// a frame, where a new scene every frame took 2.7 ms; at 20% and 30% they ran 12-18%
     /// slower for 0.17-0.20 and 0.72-0.80 ms, and with no rebuilds, after 100 frames of all
     /// of them moving, 2.2x slower (`scene_update_timing`, BENCHMARKS.md).
@@ -190,7 +194,8 @@ impl InstancedScene {
             });
         }
         let mut membership_changed = false;
-        let mut changed = Vec::with_capacity(updates.len());
+        let mut changed = core::mem::take(&mut self.upkeep.changed);
+        changed.clear();
         for (i, instance) in updates {
             let at = i as usize;
             let placed = PlacedInstance::place(instance);
@@ -199,16 +204,16 @@ impl InstancedScene {
             self.instances[at] = placed.map(|(p, _)| p);
             changed.push(i);
         }
+        let changed_count = changed.len();
         if membership_changed {
             self.rejected = (0..)
                 .zip(&self.instances)
                 .filter_map(|(i, p)| p.is_none().then_some(i))
                 .collect();
-            self.rebuild_top_level();
-            return Ok(());
         }
-        if self.upkeep.skip_refit(changed.len()) {
+        if membership_changed || self.upkeep.skip_refit(changed_count) {
             self.rebuild_top_level();
+            self.upkeep.changed = changed;
             return Ok(());
         }
         let Self {
@@ -231,6 +236,7 @@ impl InstancedScene {
         let root = f64::from(top.bounds().half_area());
         let loose =
             root > 0.0 && upkeep.slot_area / root > upkeep.built_cost * f64::from(upkeep.threshold);
+        upkeep.changed = changed;
         if !loose {
             upkeep.fresh = false;
             upkeep.refits_fail_from = None;
@@ -241,7 +247,7 @@ impl InstancedScene {
         // at 100,000 instances all moving it made a frame 1.5x a rebuild's time
         // (`scene_update_timing`, BENCHMARKS.md).
         if upkeep.fresh {
-            upkeep.refits_fail_from = Some(changed.len());
+            upkeep.refits_fail_from = Some(changed_count);
             upkeep.direct_rebuilds = 0;
         }
         self.rebuild_top_level();
@@ -252,12 +258,11 @@ impl InstancedScene {
     /// [`update_instances`](Self::update_instances) does once refits have left it loose.
     pub fn rebuild_top_level(&mut self) {
         self.top = top_level_over(&self.boxes);
-        self.upkeep = TopLevelUpkeep {
-            threshold: self.upkeep.threshold,
-            refits_fail_from: self.upkeep.refits_fail_from,
-            direct_rebuilds: self.upkeep.direct_rebuilds,
-            ..TopLevelUpkeep::new(&self.top)
-        };
+        let kept = core::mem::replace(&mut self.upkeep, TopLevelUpkeep::new(&self.top));
+        self.upkeep.threshold = kept.threshold;
+        self.upkeep.refits_fail_from = kept.refits_fail_from;
+        self.upkeep.direct_rebuilds = kept.direct_rebuilds;
+        self.upkeep.changed = kept.changed;
     }
 }
 
