@@ -58,9 +58,12 @@ pub(super) struct TopLevelUpkeep {
     refits_fail_from: Option<usize>,
     /// Rebuilds made without a refit since `refits_fail_from` was set.
     direct_rebuilds: u32,
-    /// The indices an update changed: kept between updates, so that a frame's update does
-    /// not allocate.
+    /// The indices an update changed: kept between updates, as `pending` is, so that an
+    /// update that refits allocates nothing once the first refit has made the paths.
     changed: Vec<u32>,
+    /// An update's instances, gathered so that every index is checked before any is
+    /// applied (an update is refused whole).
+    pending: Vec<(u32, Instance)>,
 }
 
 /// After one refit fails to keep a fresh top level, every this many updates that change as
@@ -78,6 +81,7 @@ impl TopLevelUpkeep {
             refits_fail_from: None,
             direct_rebuilds: 0,
             changed: Vec::new(),
+            pending: Vec::new(),
         }
     }
 
@@ -142,7 +146,9 @@ impl InstancedScene {
 
     /// Replaces instances, each given as `(index, new instance)`: a new transform, a new mesh
     /// (a skinned mesh refit into a new [`MeshBvh`](super::MeshBvh)), or both; then brings
-    /// the top level up to date. For moving instances, every frame.
+    /// the top level up to date. For moving instances, every frame: the updates are gathered
+    /// into a list the scene keeps, so an update that refits allocates nothing (pass the
+    /// iterator that makes them, e.g. over a query, rather than a `Vec` built for the call).
     ///
     /// Where every changed instance is accepted before and after, the top level is refit
     /// along the changed instances' paths only: a few boxes per instance, where a rebuild
@@ -185,9 +191,12 @@ impl InstancedScene {
         &mut self,
         updates: impl IntoIterator<Item = (u32, Instance)>,
     ) -> Result<(), SceneUpdateError> {
-        let updates: Vec<(u32, Instance)> = updates.into_iter().collect();
+        let mut pending = core::mem::take(&mut self.upkeep.pending);
+        pending.extend(updates);
         let instance_count = self.instances.len();
-        if let Some(&(instance, _)) = updates.iter().find(|(i, _)| *i as usize >= instance_count) {
+        if let Some(&(instance, _)) = pending.iter().find(|(i, _)| *i as usize >= instance_count) {
+            pending.clear();
+            self.upkeep.pending = pending;
             return Err(SceneUpdateError::NoSuchInstance {
                 instance,
                 instance_count,
@@ -196,7 +205,7 @@ impl InstancedScene {
         let mut membership_changed = false;
         let mut changed = core::mem::take(&mut self.upkeep.changed);
         changed.clear();
-        for (i, instance) in updates {
+        for (i, instance) in pending.drain(..) {
             let at = i as usize;
             let placed = PlacedInstance::place(instance);
             membership_changed |= self.instances[at].is_some() != placed.is_some();
@@ -204,6 +213,7 @@ impl InstancedScene {
             self.instances[at] = placed.map(|(p, _)| p);
             changed.push(i);
         }
+        self.upkeep.pending = pending;
         let changed_count = changed.len();
         if membership_changed {
             self.rejected = (0..)
@@ -263,6 +273,7 @@ impl InstancedScene {
         self.upkeep.refits_fail_from = kept.refits_fail_from;
         self.upkeep.direct_rebuilds = kept.direct_rebuilds;
         self.upkeep.changed = kept.changed;
+        self.upkeep.pending = kept.pending;
     }
 }
 
