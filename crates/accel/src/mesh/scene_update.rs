@@ -72,17 +72,29 @@ const RETRY_REFIT_EVERY: u32 = 8;
 
 impl TopLevelUpkeep {
     pub(super) fn new(top: &Bvh8) -> Self {
-        Self {
+        let mut upkeep = Self {
             paths: None,
-            built_cost: f64::from(top.slot_area_cost()),
-            slot_area: top.slot_area_sum(),
+            built_cost: 0.0,
+            slot_area: 0.0,
             threshold: InstancedScene::DEFAULT_REBUILD_THRESHOLD,
             fresh: true,
             refits_fail_from: None,
             direct_rebuilds: 0,
             changed: Vec::new(),
             pending: Vec::new(),
-        }
+        };
+        upkeep.restart(top);
+        upkeep
+    }
+
+    /// Starts over on a newly built top level: what was kept of the old tree (its refit
+    /// links and cost) goes; the threshold, the record of failed refits and the kept lists
+    /// stay.
+    fn restart(&mut self, top: &Bvh8) {
+        self.paths = None;
+        self.built_cost = f64::from(top.slot_area_cost());
+        self.slot_area = top.slot_area_sum();
+        self.fresh = true;
     }
 
     /// Whether an update that changes `changed` instances should rebuild straight away.
@@ -268,12 +280,7 @@ impl InstancedScene {
     /// [`update_instances`](Self::update_instances) does once refits have left it loose.
     pub fn rebuild_top_level(&mut self) {
         self.top = top_level_over(&self.boxes);
-        let kept = core::mem::replace(&mut self.upkeep, TopLevelUpkeep::new(&self.top));
-        self.upkeep.threshold = kept.threshold;
-        self.upkeep.refits_fail_from = kept.refits_fail_from;
-        self.upkeep.direct_rebuilds = kept.direct_rebuilds;
-        self.upkeep.changed = kept.changed;
-        self.upkeep.pending = kept.pending;
+        self.upkeep.restart(&self.top);
     }
 }
 

@@ -136,13 +136,10 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Every used slot's surface area (half area), summed: the
     /// [`slot_area_cost`](Self::slot_area_cost) before the division by the root's.
     pub fn slot_area_sum(&self) -> f64 {
+        let every_slot = (1u32 << N) - 1;
         self.nodes
             .iter()
-            .flat_map(|node| {
-                (0..N)
-                    .filter(|&slot| node.is_used(slot))
-                    .map(|slot| f64::from(node.child_aabb(slot).half_area()))
-            })
+            .map(|node| used_slot_area(node, every_slot))
             .sum()
     }
 
@@ -151,6 +148,16 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     pub fn validate(&self, bounds: &[Aabb]) -> Result<(), super::validate::ValidationError> {
         collapse::validate(self, bounds)
     }
+}
+
+/// The summed surface area (half areas) of the used slots of `node` named in `mask` (bit `s`:
+/// slot `s`): what [`WideBvh::slot_area_sum`] adds up, and what a path refit compares before
+/// and after.
+fn used_slot_area<const N: usize, L: WideLayout<N>>(node: &L, mask: u32) -> f64 {
+    (0..N)
+        .filter(|&slot| mask & (1 << slot) != 0 && node.is_used(slot))
+        .map(|slot| f64::from(node.child_aabb(slot).half_area()))
+        .sum()
 }
 
 /// True when every primitive id equals its position in leaf order.

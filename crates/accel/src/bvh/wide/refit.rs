@@ -1,7 +1,7 @@
 //! Refitting a wide tree in place after its primitives moved (skinned meshes, morphs, moving
 //! entities): the whole tree, or only the paths above the primitives that moved.
 
-use super::{WideBvh, WideLayout};
+use super::{WideBvh, WideLayout, used_slot_area};
 use crate::Aabb;
 
 /// No parent (the root).
@@ -27,13 +27,11 @@ fn refit_node<const N: usize, const AREA: bool, L: WideLayout<N>>(
     } else {
         (1 << N) - 1
     };
-    let slot_area = |node: &L| -> f64 {
-        (0..N)
-            .filter(|&slot| mask & (1 << slot) != 0 && node.is_used(slot))
-            .map(|slot| f64::from(node.child_aabb(slot).half_area()))
-            .sum()
+    let before = if AREA {
+        used_slot_area(&nodes[n], mask)
+    } else {
+        0.0
     };
-    let before = if AREA { slot_area(&nodes[n]) } else { 0.0 };
     let node = &nodes[n];
     let mut boxes = [Aabb::EMPTY; N];
     for (slot, b) in boxes.iter_mut().enumerate() {
@@ -53,7 +51,7 @@ fn refit_node<const N: usize, const AREA: bool, L: WideLayout<N>>(
     nodes[n].set_slot_boxes(mask, &boxes);
     // Read back, not taken from `boxes`: a quantized layout stores them rounded out.
     if AREA {
-        slot_area(&nodes[n]) - before
+        used_slot_area(&nodes[n], mask) - before
     } else {
         0.0
     }
