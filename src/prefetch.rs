@@ -71,8 +71,8 @@ pub(crate) fn for_each_prefetched_in_two_stages<S, T>(
     let mut count = 0usize;
     // `for_each`, not a `for` loop: it runs the iterator's `fold`, which Bevy's query iterator
     // specialises into a tight loop per table. Pulled item by item through `next`, the
-    // change-detection scan over every dynamic entity ran about 1.4x slower when nothing moved
-    // (A/B on the sync bench's idle row).
+    // change-detection scan over every dynamic entity ran clearly slower when nothing moved
+    // (A/B on the sync bench's idle row; docs/experiments.md, Plugin sync).
     items.for_each(|item| {
         far(state, &item);
         // The slot the new item takes holds the item `WINDOW` places before it: now due.

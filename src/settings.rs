@@ -17,8 +17,8 @@ pub struct AccelSettings {
     /// Watch [`AccelStatic`](crate::AccelStatic) entities for motion too, rebuilding the
     /// static tree when one moves. Off by default: the marker promises the entity does not
     /// move, and watching costs a change-detection scan over every static entity each frame
-    /// (about 3 ns each: 0.3 ms at 100k). A static entity that moves while this is off keeps
-    /// its old box until the marker is removed or inserted again.
+    /// (see docs/experiments.md, Plugin sync). A static entity that moves while this is off
+    /// keeps its old box until the marker is removed or inserted again.
     pub watch_static_motion: bool,
     /// Absolute growth of each side of a dynamic leaf, in world units: motion within it costs
     /// nothing.
@@ -55,18 +55,17 @@ pub struct AccelSettings {
     /// frames); otherwise it is dropped at the first motion, and rebuilt once the world has
     /// held still for [`ray_snapshot_after_stable_frames`](Self::ray_snapshot_after_stable_frames).
     ///
-    /// Why: refitting it costs each moving entity its path in the snapshot (about 0.8 us per
-    /// mover on the picking bench, at 10,000 and at 100,000 entities), while a ray walking it
-    /// instead of the binary tree saves about 3.4 us at 100,000 entities and 1.1 us at 10,000. A
+    /// Why: refitting it costs each moving entity its path in the snapshot, while each ray
+    /// walking it instead of the binary tree saves more than a mover's refit costs, and more
+    /// in larger worlds (measured on the picking bench: docs/experiments.md, Picking). A
     /// game that casts one picking ray per frame over a moving crowd gains nothing from it;
     /// a ray-traced preview or many line-of-sight casts gain a lot.
     pub ray_snapshot_rays_per_mover: f32,
     /// Up to this many dynamic entities the ray snapshot is built in the frame that ends the
-    /// wait (0.96 ms at 5,000 in a release build of `accel`; the picking bench measured
-    /// 2.8-3.2 ms at 10,000 in the dev profile); above, on a background thread, where the
-    /// frame pays only for collecting the leaves' boxes (about 1 ms at 100,000), and rays use
-    /// the snapshot from the frame after it is done (if no dynamic entity entered or left
-    /// meanwhile; motion meanwhile is refit when it is installed).
+    /// wait (a build's cost grows with the entities: docs/experiments.md, Picking); above, on
+    /// a background thread, where the frame pays only for collecting the leaves' boxes, and
+    /// rays use the snapshot from the frame after it is done (if no dynamic entity entered or
+    /// left meanwhile; motion meanwhile is refit when it is installed).
     pub ray_snapshot_in_frame_max_entities: usize,
 }
 
@@ -85,8 +84,8 @@ impl Default for AccelSettings {
             // Half a second at 60 fps: a scene that spawns now and then should not make the
             // plugin build the snapshot between its spawns.
             ray_snapshot_after_stable_frames: Some(30),
-            // Two seconds at 60 fps; at 100,000 entities a rebuild costs the frame about 1 ms
-            // (collecting the boxes for the background thread).
+            // Two seconds at 60 fps; a rebuild costs the frame only the collection of the
+            // boxes for the background thread.
             ray_snapshot_rebuild_after_moving_frames: Some(120),
             // Break-even, from the costs above, is about 0.25-0.75 rays per mover: 1 leaves a
             // margin.

@@ -58,9 +58,10 @@ pub enum TreeSlot {
 /// up to eight: on the picking bench, rays then reach about a third as many candidates.
 ///
 /// Built with PLOC rather than binned SAH: the static tree is rebuilt whenever static
-/// entities come or go, in the frame, and at a million entities PLOC builds it in about
-/// 200 ms against 480-580 ms, while rays and views ran as fast or faster on its trees in the
-/// picking, culling and light benches (BENCHMARKS.md).
+/// entities come or go, in the frame, and at a million entities PLOC builds it in well under
+/// half the binned build's time, while rays and views ran as fast or faster on its trees in
+/// the picking, culling and light benches (BENCHMARKS.md, Static BVH builds;
+/// docs/experiments.md, same section).
 fn entity_tree_config() -> BuildConfig {
     BuildConfig {
         split: accel::SplitStrategy::PLOC_FASTEST,
@@ -84,8 +85,8 @@ fn entity_tree_config() -> BuildConfig {
 /// The box is stored as plain coordinates so the entity fits on the first line too: a ray's
 /// candidate then finds its entity on the line its box test loaded, where reading it from the
 /// packed [`AccelTrees::slot_entities`] array cost one more miss per candidate (rays at 100k
-/// entities ran 4-5% faster, measured paired). The packed array stays for culling, which
-/// walks slots in order and reads 8 bytes per entity instead of a line.
+/// entities ran faster, paired: docs/experiments.md, Picking). The packed array stays for
+/// culling, which walks slots in order and reads 8 bytes per entity instead of a line.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct SlotEntry {
@@ -460,9 +461,10 @@ impl AccelTrees {
     /// Why: after a rebuild or the optimiser's reinsertions, a leaf's place in the dynamic
     /// tree's arena no longer follows the entity order in which the sync visits movers, so
     /// each update waited on a leaf node and its tight box (perf and phase timers on the sync
-    /// bench: about 200 ns per moved entity, half the sync). The slot record comes after the
-    /// per-entity record in a chain of dependent reads, so it is asked for here, once that
-    /// record (asked for earlier by [`prefetch_record`](Self::prefetch_record)) has arrived.
+    /// bench: about half the sync; docs/experiments.md, Plugin sync). The slot record comes
+    /// after the per-entity record in a chain of dependent reads, so it is asked for here,
+    /// once that record (asked for earlier by [`prefetch_record`](Self::prefetch_record)) has
+    /// arrived.
     #[inline]
     pub(crate) fn prefetch_placement(&self, entity: Entity) {
         let Some(t) = self.tracked(entity) else {

@@ -24,7 +24,7 @@ pub enum SplitStrategy {
     /// Not a split: LBVH, the linear BVH (Lauterbach et al. 2009; Karras 2012's binary radix
     /// tree). Primitives are sorted along a Morton curve and each node splits its run where
     /// the highest differing bit of their codes changes: a sort and two linear passes, the
-    /// fastest build here (100k boxes in 3.4-3.7 ms on the benchmark machine), for a tree
+    /// fastest build here (BENCHMARKS.md, Static BVH builds), for a tree
     /// 8-22% costlier than a binned SAH one. `max_leaf_size` and `max_depth` apply;
     /// `sah_termination` does not (no split is costed).
     Lbvh,

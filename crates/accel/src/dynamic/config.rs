@@ -39,10 +39,10 @@ pub struct DynamicBvhConfig {
     /// pool, level by level, the wide levels in chunks. The result is the same bits as on one
     /// thread. Needs the cargo feature `rayon`; without it this is ignored.
     ///
-    /// Off by default: on the two-vCPU benchmark VM the parallel replay measured slower than
-    /// one thread (55-115 against 43-55 ns per leaf at 100k leaves, `dynamic_timing
-    /// --features rayon`), the replay being bound by memory bandwidth the vCPUs share. Worth
-    /// measuring on a machine with more cores and memory channels.
+    /// Off by default: on a two-vCPU machine the parallel replay measured slower than one
+    /// thread (`dynamic_timing --features rayon`; docs/experiments.md, Dynamic BVH), the
+    /// replay being bound by memory bandwidth the vCPUs share. Worth measuring on a machine
+    /// with more cores and memory channels.
     pub parallel_refit: bool,
 }
 

@@ -12,13 +12,14 @@
 //! while the snapshot only refits tight boxes in place and is rebuilt when it has aged. On
 //! the picking bench at 100,000 entities, rays through a
 //! copy of the dynamic tree's shape (even refit to the tight boxes) visited 18.1 wide nodes
-//! and 3.67 candidates each, and ran 1.15-1.8x slower than through a PLOC build over the same
-//! boxes, which visited 13.4 and 3.33, as many as the static tree over the same entities.
+//! and 3.67 candidates each, and ran clearly slower than through a PLOC build over the same
+//! boxes, which visited 13.4 and 3.33, as many as the static tree over the same entities
+//! (docs/experiments.md, Picking).
 //!
 //! 16-wide, as the static tree's ray copy, since the walk's 16-wide node test runs 8 lanes at
-//! a time (`bvh/wide/ray.rs`): rays through the snapshot of 100,000 entities at rest took
-//! 0.88x the time of rays through an 8-wide one, and with 1% of them moving every frame the
-//! refits took no longer (1.13 against 1.24 ms a frame, one run each; BENCHMARKS.md).
+//! a time (`bvh/wide/ray.rs`): rays through the snapshot of 100,000 entities at rest ran
+//! faster than through an 8-wide one, and with 1% of them moving every frame the refits took
+//! no longer (docs/experiments.md, Picking).
 
 use super::DynamicBvh;
 use crate::bvh::wide::{Bvh16, RefitPaths};

@@ -3,10 +3,10 @@
 //!
 //! A depth-first refit over the arena is a chain of dependent loads: each node's children are
 //! known only once the node has arrived, and the arena's order is random after insertions, so
-//! at 100k leaves every step waits a full memory latency (about 200 ns on the benchmark VM,
-//! against 16 ns per line when the loads are independent and prefetched: the
-//! `dynamic_timing` example measures both). The schedule turns the refit into independent
-//! loads:
+//! at 100k leaves every step waits a full memory latency, an order of magnitude longer than
+//! a line costs when the loads are independent and prefetched (the `dynamic_timing` example
+//! measures both; docs/experiments.md, Dynamic BVH). The schedule turns the refit into
+//! independent loads:
 //!
 //! - **Compiling** walks the tree breadth-first. The queue names every node long before it
 //!   is read, so each is prefetched a fixed number of entries ahead and the reads overlap
@@ -36,14 +36,15 @@ use crate::prefetch::prefetch_node;
 /// Arena slots stay below 2^31 ([`super::node::MAX_NODES`]), so the bit is free.
 const LEAF_CHILD: u32 = 1 << 31;
 
-/// How many entries ahead the replay asks for the nodes it will read and write. At 100k
-/// leaves, on a VM whose 32 MB cache holds the whole arena (`dynamic_timing`, two alternated
-/// rounds): 6 entries 14.5-14.7 ns per leaf, 12 entries 12.0-12.1, 24 entries 11.0-11.2,
-/// 40 entries 9.5-10.4, 64 entries 9.6-11.0, 96 entries 10.9-12.2, 160 entries 12.5-13.2.
+/// How many entries ahead the replay asks for the nodes it will read and write. Why 40: at
+/// 100k leaves, with the whole arena in the last-level cache, `dynamic_timing` measured
+/// distances from 6 to 160 entries; shorter ones leave part of each load's latency
+/// uncovered, longer ones measured slower too, and 40 was the fastest (the figures are in
+/// docs/experiments.md, Dynamic BVH).
 const PREFETCH_DISTANCE: usize = 40;
 
 /// How many queue entries ahead compilation asks for nodes: its steps are short, so it must
-/// look further ahead than the replay to cover a memory latency (~200 ns on the VM).
+/// look further ahead than the replay to cover a memory latency.
 const COMPILE_PREFETCH_DISTANCE: usize = 48;
 
 /// Entries per chunk of a level: each chunk is one task on the pool, and the unit the area

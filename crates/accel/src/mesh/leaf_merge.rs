@@ -22,9 +22,9 @@ const COUNTED_REFERENCES: usize = 64;
 /// ray tests a leaf [`LANES`] triangles at a time, so one to four triangles cost one test:
 /// priced so (tinybvh prices its 4-wide leaves the same way), sibling leaves of one or two
 /// triangles merge into fuller packets: the SBVH of that scene had 10% fewer packets and 11%
-/// fewer nodes, and traced closest-hit rays 2-4% and shadow rays 4-8% faster
-/// (`BENCHMARKS.md`). The builders' own collapse cannot see either; this pass, bottom-up,
-/// keeps the cheaper of leaf and node under `traversal * area + children` against
+/// fewer nodes, and traced every kind of ray faster, shadow rays most
+/// (docs/experiments.md, Rays on meshes). The builders' own collapse cannot see either;
+/// this pass, bottom-up, keeps the cheaper of leaf and node under `traversal * area + children` against
 /// `intersection * area * LANES * packets`.
 pub(super) fn merge_leaves(bvh: &mut Bvh, triangle_of: Option<&[u32]>, config: &BuildConfig) {
     if !config.sah_termination || bvh.nodes.is_empty() {

@@ -20,7 +20,8 @@ const MAX_PIECES_PER_TRIANGLE: u32 = 256;
 
 /// Triangles whose boxes waste less than this many times the mean waste are not cut, however
 /// much budget is left: in a mesh of like triangles (a tessellated sphere, the bunny) cuts
-/// buy little (rays 1-7% faster) for a build up to 3.5 times slower.
+/// buy rays a few percent for a build several times slower (docs/experiments.md, Rays on
+/// meshes).
 const WORTH_CUTTING: f64 = 4.0;
 
 /// A triangle whose box is larger (in area) than this many typical leaves' boxes of the mesh
@@ -31,9 +32,10 @@ const WORTH_CUTTING: f64 = 4.0;
 /// large overlapping triangles: the benchmark scene's large triangles built as a mesh of their
 /// own), every waste is near the mean, so the rule above cut none of them, while rays through
 /// such a mesh walk leaves of overlapping large boxes. With this rule the benchmark's
-/// two-level scene, answered almost wholly inside that mesh, traced 8-18% faster; the
-/// flattened scene, whose large triangles the rule above already cut, the sphere and the
-/// bunny, whose triangles are smaller than their leaves, are as before (BENCHMARKS.md).
+/// two-level scene, answered almost wholly inside that mesh, traced faster; the flattened
+/// scene, whose large triangles the rule above already cut, the sphere and the bunny, whose
+/// triangles are smaller than their leaves, are as before (docs/experiments.md, Mesh builds
+/// and instanced scenes).
 const LARGE_AGAINST_LEAVES: f32 = 1.0;
 
 /// Triangles in the typical leaf that [`LARGE_AGAINST_LEAVES`] measures against: one packet.

@@ -212,8 +212,8 @@ pub(super) fn top_level_over(boxes: &[Aabb]) -> Bvh8 {
     // it hits, with no test of the primitive's own box, and here a call means moving the ray
     // into the instance and walking its mesh. On the benchmark scene split into overlapping
     // instances, leaves of up to eight instances (the default) entered 14.3 instances per
-    // incoherent ray, one instance a leaf 4.7, and every kind of ray ran 1.22-1.51x faster
-    // (BENCHMARKS.md).
+    // incoherent ray, one instance a leaf 4.7, and every kind of ray ran faster
+    // (docs/experiments.md, Mesh builds and instanced scenes).
     let config = BuildConfig {
         max_leaf_size: 1,
         ..BuildConfig::default()

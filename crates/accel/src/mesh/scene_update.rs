@@ -139,10 +139,10 @@ impl InstancedScene {
     /// leave the top level 10% looser than when it was built.
     ///
     /// Why 10%: with 10,000 instances of which 10% or all move every frame, rays through
-    /// the top level ran 4-8% slower than through a fresh one, at a mean of 0.23 and 1.19 ms
-    /// a frame, where a new scene every frame took 2.7 ms; at 20% and 30% they ran 12-18%
-    /// slower for 0.17-0.20 and 0.72-0.80 ms, and with no rebuilds, after 100 frames of all
-    /// of them moving, 2.2x slower (`scene_update_timing`, BENCHMARKS.md).
+    /// the updated top level stayed within a few percent of a fresh one's at a fraction of a
+    /// new scene's cost a frame; looser thresholds saved little time for clearly slower
+    /// rays, and never rebuilding let rays fall far behind (`scene_update_timing`;
+    /// BENCHMARKS.md, Mesh builds and instanced scenes; docs/experiments.md, same section).
     pub const DEFAULT_REBUILD_THRESHOLD: f32 = 1.1;
 
     /// Sets how much looser than when it was built refits may leave the top level before
@@ -266,8 +266,8 @@ impl InstancedScene {
         }
         // Why: where one update's motion loosens a fresh tree past the threshold (instances
         // moving their own size every frame), the refit is wasted work before the rebuild:
-        // at 100,000 instances all moving it made a frame 1.5x a rebuild's time
-        // (`scene_update_timing`, BENCHMARKS.md).
+        // at 100,000 instances all moving it made a frame markedly dearer than the rebuild
+        // alone (`scene_update_timing`; docs/experiments.md, Mesh builds and instanced scenes).
         if upkeep.fresh {
             upkeep.refits_fail_from = Some(changed_count);
             upkeep.direct_rebuilds = 0;

@@ -3,9 +3,9 @@
 use core::mem::MaybeUninit;
 
 /// A LIFO of node ids that lives on the call stack up to `INLINE` entries and spills to the heap
-/// beyond. A ray query that allocated would cost more than the traversal itself (an allocation
-/// is ~20 ns; a shallow traversal is less), yet a dynamic tree or a degenerate build can be far
-/// deeper than any fixed array, and overflowing one must not be possible.
+/// beyond. A ray query that allocated would cost more than the traversal itself (a shallow
+/// traversal takes less time than an allocation), yet a dynamic tree or a degenerate build
+/// can be far deeper than any fixed array, and overflowing one must not be possible.
 ///
 /// The inline entries start uninitialised: a picking ray starts a walk per candidate mesh as
 /// well as its own, and zeroing 64 entries each time (512 bytes for a wide walk's

@@ -17,8 +17,9 @@ use std::borrow::Cow;
 /// The plan records only which binary node each slot takes (a few bytes a slot);
 /// the wide nodes are written once, by the bottom-up pass. Why: an earlier version built
 /// every node twice, as a float node and then in the layout, in arrays grown by doubling, and
-/// at a million entities perf put about a quarter of its 210 ms on page faults and copies of
-/// those arrays (120 ms now, BENCHMARKS.md).
+/// at a million entities perf put about a quarter of its time on page faults and copies of
+/// those arrays; writing each node once nearly halved it (docs/experiments.md, Static BVH
+/// builds).
 pub(super) fn collapse<const N: usize, L: WideLayout<N>>(bvh: &Bvh) -> WideBvh<N, L> {
     assert!(N >= 2, "a wide node needs at least two children");
     let bvh = split_oversized_leaves(bvh, L::MAX_LEAF_PRIMITIVES);

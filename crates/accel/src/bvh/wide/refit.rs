@@ -90,8 +90,8 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// cache miss each. This recomputes the one slot on each level of a moved primitive's
     /// path, shared slots once (children before parents), reading the child node just
     /// written, not its seven siblings (on the picking bench, with 1,000 of 100,000 entities
-    /// moving, this took the refit from about 0.9 to about 0.83 ms a frame: the misses along
-    /// the paths dominate).
+    /// moving, that gained a little over recomputing every slot of the nodes on the paths:
+    /// the misses along the paths dominate; docs/experiments.md, Picking).
     ///
     /// ```
     /// use accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
