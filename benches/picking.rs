@@ -5,8 +5,9 @@
 //!
 //! A world is built only when a benchmark on it matches the command line's filter (plain
 //! substrings separated by `|` here, where criterion takes a regex). Why: at 10^5 entities the per-ray time
-//! depends on what the process allocated before the world (the same rays ran about 2x slower
-//! in a world built after two others had been built and dropped than in the first one), so
+//! depends on what the process allocated before the world (the same rays ran much slower in
+//! a world built after two others had been built and dropped than in the first one:
+//! docs/experiments.md, Picking), so
 //! rows are best compared each from its own run, e.g. `-- "100000/bevy_accel AccelRayCast,
 //! static|100000/bevy MeshRayCast, static"`. `MeshRayCast` is timed on the static world and on
 //! the dynamic one at rest, so each of our rows on those worlds has Bevy's time from the same

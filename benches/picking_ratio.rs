@@ -21,6 +21,7 @@
 //! every frame with motion before the snapshot was kept through it. Candidates find their
 //! meshes through the slot mesh table; `table=never` reads them from the ECS instead.
 
+use accel_testkit::Rng;
 use bevy::ecs::system::SystemState;
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
 use bevy::prelude::*;
@@ -31,8 +32,8 @@ use std::time::Instant;
 mod picking_world;
 use picking_world::world;
 
-/// Rays `MeshRayCast` casts per round: at 10^5 entities about 60 ms, so that a round is short
-/// next to the machine's phases and the rounds together cast every ray once.
+/// Rays `MeshRayCast` casts per round: few enough at 10^5 entities that a round is short next
+/// to the machine's phases, and the rounds together cast every ray once.
 const BEVY_RAYS_PER_ROUND: usize = 32;
 
 /// What runs between two passes of ours.
@@ -109,7 +110,7 @@ fn main() {
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());
         let mut bevy = SystemState::<MeshRayCast>::new(app.world_mut());
         let mut movers = SystemState::<Query<&mut Transform, With<Mesh3d>>>::new(app.world_mut());
-        let mut step_rng = 0x9e37_79b9u32;
+        let mut step_rng = Rng::new(0x9e37_79b9);
         let (mut frame_us, mut maintain_us, mut sync_us) = (Vec::new(), Vec::new(), Vec::new());
         let mut snapshot_rounds = 0;
 
@@ -154,9 +155,8 @@ fn main() {
                 // Small steps, as a crowd walks: most stay inside their fat boxes.
                 let mut query = movers.get_mut(app.world_mut()).expect("the movers query");
                 for mut transform in query.iter_mut() {
-                    step_rng = step_rng.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                    if (step_rng >> 8) as usize % 1000 < per_mille {
-                        let r = (step_rng >> 4) as f32 / (1u32 << 28) as f32;
+                    if step_rng.below(1000) < per_mille {
+                        let r = step_rng.f32();
                         transform.translation += Vec3::new(r - 0.5, 0.5 - r, r * 0.5) * 0.2;
                     }
                 }

@@ -10,7 +10,8 @@ use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 
 mod common;
-use common::{Rng, grid_point, headless_app};
+use accel_testkit::Rng;
+use common::{grid_point, headless_app};
 use std::any::TypeId;
 
 /// Which of the test's cameras a view is (query order differs between the two apps).
@@ -40,7 +41,7 @@ fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
 /// some on other render layers, some without frustum culling (with and without an `Aabb`),
 /// some static.
 fn populate(app: &mut App, seed: u64, marked: bool) -> Vec<Entity> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::from_state(seed);
     let world = app.world_mut();
     let class = drawable_class();
     let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
@@ -49,7 +50,7 @@ fn populate(app: &mut App, seed: u64, marked: bool) -> Vec<Entity> {
         .id();
     let mut out = Vec::new();
     for i in 0..3000 {
-        let t = Transform::from_translation(rng.vec3(200.0))
+        let t = Transform::from_translation(rng.vec3(-200.0, 200.0))
             .with_rotation(Quat::from_rotation_y(rng.range(0.0, 6.0)))
             .with_scale(Vec3::new(
                 rng.range(0.1, 4.0),
@@ -221,13 +222,19 @@ fn check_camera_paths(variant: Variant) {
     let a = populate(&mut bevy_app, 3, marked);
     let b = populate(&mut accel_app, 3, marked);
     assert_eq!(a.len(), b.len());
-    let mut rng = Rng(11);
+    let mut rng = Rng::from_state(11);
     let mut cams: Vec<(Vec3, Vec3, f32)> = (0..2)
-        .map(|_| (rng.vec3(150.0), rng.vec3(50.0), rng.range(0.4, 1.4)))
+        .map(|_| {
+            (
+                rng.vec3(-150.0, 150.0),
+                rng.vec3(-50.0, 50.0),
+                rng.range(0.4, 1.4),
+            )
+        })
         .collect();
     // A narrow view: few hits, so it stays on the tree path (the wide views soon see enough of
     // the world to take the flat pass).
-    cams.push((rng.vec3(150.0), rng.vec3(50.0), 0.05));
+    cams.push((rng.vec3(-150.0, 150.0), rng.vec3(-50.0, 50.0), 0.05));
     for app in [&mut bevy_app, &mut accel_app] {
         for (i, &(eye, target, fov)) in cams.iter().enumerate() {
             let mut e = app.world_mut().spawn((
@@ -241,7 +248,7 @@ fn check_camera_paths(variant: Variant) {
             }
         }
     }
-    let mut rng_path = Rng(5);
+    let mut rng_path = Rng::from_state(5);
     let (mut flat_views, mut tree_views, mut accepted_whole, mut reused_walks) = (0, 0, 0, 0);
     let mut flat_views_on_trees = 0;
     let mut step: Vec<(Vec3, Vec3, f32)> = cams.clone();
@@ -264,16 +271,22 @@ fn check_camera_paths(variant: Variant) {
         if camera_moves {
             step = cams
                 .iter()
-                .map(|&(e, t, f)| (e + rng_path.vec3(40.0), t + rng_path.vec3(20.0), f))
+                .map(|&(e, t, f)| {
+                    (
+                        e + rng_path.vec3(-40.0, 40.0),
+                        t + rng_path.vec3(-20.0, 20.0),
+                        f,
+                    )
+                })
                 .collect();
         }
         let shift = if still {
             Vec3::ZERO
         } else if !camera_moves {
             // Far enough for the parent's children to leave or enter the views.
-            rng_path.vec3(150.0)
+            rng_path.vec3(-150.0, 150.0)
         } else {
-            rng_path.vec3(3.0)
+            rng_path.vec3(-3.0, 3.0)
         };
         for (app, entities) in [(&mut bevy_app, &a), (&mut accel_app, &b)] {
             if still {
@@ -524,14 +537,14 @@ fn visible_sets_equal_bevys_with_ranges_and_opt_outs() {
             }
         }
     }
-    let mut rng = Rng(17);
+    let mut rng = Rng::from_state(17);
     let (mut tree_views, mut in_range_changes) = (0, 0);
     for frame in 0..12 {
         // Eyes inside and around the grid, so that range bands cut through what is in view.
         let cams: Vec<(Vec3, Vec3, f32)> = (0..3)
             .map(|_| {
-                let eye = centre + rng.vec3(40.0);
-                (eye, centre + rng.vec3(10.0), rng.range(0.3, 1.2))
+                let eye = centre + rng.vec3(-40.0, 40.0);
+                (eye, centre + rng.vec3(-10.0, 10.0), rng.range(0.3, 1.2))
             })
             .collect();
         for (app, entities) in [(&mut bevy_app, &a), (&mut accel_app, &b)] {

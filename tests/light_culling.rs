@@ -16,7 +16,8 @@ use bevy_accel::prelude::*;
 use std::collections::HashMap;
 
 mod common;
-use common::{Rng, add_lights, headless_app};
+use accel_testkit::Rng;
+use common::{add_lights, headless_app};
 
 /// Which of the test's cameras or lights an entity is (entity ids differ between the apps).
 #[derive(Component, Clone, Copy)]
@@ -38,14 +39,14 @@ fn app(ours: bool) -> App {
 
 /// Casters of varied size and kind; returns the moving parent.
 fn populate(app: &mut App, seed: u64) -> Entity {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::from_state(seed);
     let world = app.world_mut();
     let hidden_parent = world.spawn((Transform::default(), Visibility::Hidden)).id();
     let moving_parent = world
         .spawn((Transform::from_xyz(5.0, 0.0, 0.0), Visibility::Visible))
         .id();
     for i in 0..3000 {
-        let mut t = Transform::from_translation(rng.vec3(120.0))
+        let mut t = Transform::from_translation(rng.vec3(-120.0, 120.0))
             .with_rotation(Quat::from_rotation_y(rng.range(0.0, 6.0)))
             .with_scale(Vec3::new(
                 rng.range(0.1, 4.0),
@@ -218,7 +219,7 @@ fn light_views_equal_bevys_over_moving_lights() {
     let parents = [populate(&mut bevy_app, 9), populate(&mut accel_app, 9)];
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
-    let mut rng = Rng(21);
+    let mut rng = Rng::from_state(21);
     let (mut seen, mut reused, mut flat, mut flat_on_trees) = (0, 0, 0, 0);
     for frame in 0..16 {
         // Frames 12 and 13: the plugin is switched off and its trees go stale; every light
@@ -227,8 +228,8 @@ fn light_views_equal_bevys_over_moving_lights() {
             .world_mut()
             .resource_mut::<AccelSettings>()
             .enabled = !(12..14).contains(&frame);
-        let light_step = rng.vec3(15.0);
-        let mut parent_step = rng.vec3(20.0);
+        let light_step = rng.vec3(-15.0, 15.0);
+        let mut parent_step = rng.vec3(-20.0, 20.0);
         if frame == 12 {
             // A jump while the trees are stale: the parent's children leave and enter light
             // ranges, which walks of the stale trees would miss.

@@ -25,7 +25,8 @@ use bevy_accel::prelude::*;
 
 mod common;
 mod picking_scene;
-use common::{Rng, app};
+use accel_testkit::Rng;
+use common::app;
 use picking_scene::*;
 
 #[test]
@@ -126,7 +127,7 @@ fn backend_writes_what_bevys_mesh_backend_writes() {
             ..default()
         });
     let entities = populate(&mut app, 1000, 9);
-    let mut rng = Rng(5);
+    let mut rng = Rng::from_state(5);
     for (i, &e) in entities.iter().enumerate() {
         match i % 7 {
             0 => {
@@ -228,7 +229,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
             |mut ours: AccelRayCast,
              targets: Query<(Entity, &Aabb, &GlobalTransform)>,
              trees: Res<AccelTrees>| {
-                let mut rng = Rng(11);
+                let mut rng = Rng::from_state(11);
                 let any = MeshRayCastSettings::default()
                     .with_visibility(RayCastVisibility::Any)
                     .never_early_exit();
@@ -305,7 +306,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                 };
                 let mut nonempty = 0;
                 for _ in 0..100 {
-                    let p = rng.vec3(50.0);
+                    let p = rng.vec3(-50.0, 50.0);
                     let got = ours.overlap_point(p).to_vec();
                     assert_eq!(got, brute(&|b| b.contains_point(p)));
                     let half = Vec3::splat(rng.range(0.0, 10.0));
@@ -317,7 +318,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                     let r = rng.range(0.0, 10.0);
                     let got = ours.overlap_sphere(BoundingSphere::new(p, r)).to_vec();
                     assert_eq!(got, brute(&|b| b.distance_squared_to_point(p) <= r * r));
-                    let view = Mat4::look_at_rh(p, rng.vec3(50.0), Vec3::Y);
+                    let view = Mat4::look_at_rh(p, rng.vec3(-50.0, 50.0), Vec3::Y);
                     let proj = Mat4::perspective_rh(0.8, 1.5, 0.1, rng.range(5.0, 80.0));
                     let clip = proj * view;
                     let frustum = Frustum(ViewFrustum::from_clip_from_world(&clip));

@@ -14,7 +14,8 @@ use bevy_accel::prelude::*;
 
 mod common;
 mod picking_scene;
-use common::{Rng, app};
+use accel_testkit::Rng;
+use common::app;
 use picking_scene::*;
 
 fn set_mode(app: &mut App, mode: SlotMeshTableMode) {
@@ -40,12 +41,12 @@ fn assert_equivalent(app: &mut App, seed: u64, step: &str) {
 
 /// One random edit of the mesh components of `entity`, as a game would make it.
 fn edit(app: &mut App, entity: Entity, handles: &[Handle<Mesh>], rng: &mut Rng) {
-    let other = handles[rng.next() as usize % handles.len()].clone();
+    let other = handles[rng.next_u32() as usize % handles.len()].clone();
     let world = app.world_mut();
     let Ok(mut e) = world.get_entity_mut(entity) else {
         return;
     };
-    match rng.next() % 10 {
+    match rng.next_u32() % 10 {
         // In place: no hook fires, only the change tick moves.
         0 => {
             if let Some(mut mesh) = e.get_mut::<Mesh3d>() {
@@ -74,7 +75,7 @@ fn edit(app: &mut App, entity: Entity, handles: &[Handle<Mesh>], rng: &mut Rng) 
         // Bevy's ray cast hits only entities with both visibility components, whatever
         // the visibility setting. (Half as often as they come back, so that enough entities
         // keep them for the rays to hit.)
-        7 => match rng.next() % 4 {
+        7 => match rng.next_u32() % 4 {
             0 => {
                 e.remove::<InheritedVisibility>();
             }
@@ -117,11 +118,11 @@ fn the_table_follows_every_kind_of_mesh_edit() {
         .iter(app.world())
         .map(|m| m.0.clone())
         .collect();
-    let mut rng = Rng(23);
+    let mut rng = Rng::from_state(23);
     for frame in 0..12 {
         // Out of the trees for a frame and back: slots handed over with no mesh change.
         let away: Vec<Entity> = (0..5)
-            .map(|_| entities[rng.next() as usize % entities.len()])
+            .map(|_| entities[rng.next_u32() as usize % entities.len()])
             .collect();
         for &entity in &away {
             app.world_mut().entity_mut(entity).insert(AccelIgnore);
@@ -131,17 +132,17 @@ fn the_table_follows_every_kind_of_mesh_edit() {
             app.world_mut().entity_mut(entity).remove::<AccelIgnore>();
         }
         for _ in 0..40 {
-            let entity = entities[rng.next() as usize % entities.len()];
+            let entity = entities[rng.next_u32() as usize % entities.len()];
             edit(&mut app, entity, &handles, &mut rng);
         }
         // Despawns and spawns, so slots are handed to new entities.
         for _ in 0..10 {
-            let i = rng.next() as usize % entities.len();
+            let i = rng.next_u32() as usize % entities.len();
             app.world_mut().despawn(entities.swap_remove(i));
         }
         for _ in 0..10 {
-            let mesh = handles[rng.next() as usize % handles.len()].clone();
-            let at = Transform::from_translation(rng.vec3(45.0));
+            let mesh = handles[rng.next_u32() as usize % handles.len()].clone();
+            let at = Transform::from_translation(rng.vec3(-45.0, 45.0));
             entities.push(app.world_mut().spawn((at, Mesh3d(mesh))).id());
         }
         app.update();
@@ -170,7 +171,7 @@ fn the_table_follows_every_kind_of_mesh_edit() {
     app.update();
     assert!(!table_active(&app));
     for _ in 0..60 {
-        let entity = entities[rng.next() as usize % entities.len()];
+        let entity = entities[rng.next_u32() as usize % entities.len()];
         edit(&mut app, entity, &handles, &mut rng);
     }
     app.update();

@@ -9,7 +9,7 @@ use bevy_accel::accel::SpatialQuery;
 use bevy_accel::prelude::*;
 
 mod common;
-use common::Rng;
+use accel_testkit::Rng;
 
 fn app() -> App {
     let mut app = App::new();
@@ -98,12 +98,12 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 #[test]
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
     let mut app = app_watching_statics();
-    let mut rng = Rng(7);
+    let mut rng = Rng::from_state(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
         parents.push(
             app.world_mut()
-                .spawn(Transform::from_translation(rng.vec3(50.0)))
+                .spawn(Transform::from_translation(rng.vec3(-50.0, 50.0)))
                 .id(),
         );
     }
@@ -112,12 +112,12 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
         let world = app.world_mut();
         // Spawn: some free, some children of a moving parent, some static, some ignored.
         for i in 0..60 {
-            let t = Transform::from_translation(rng.vec3(60.0))
+            let t = Transform::from_translation(rng.vec3(-60.0, 60.0))
                 .with_scale(Vec3::splat(rng.range(0.2, 3.0)));
             let mut e = world.spawn((t, unit_aabb()));
             match i % 6 {
                 0 => {
-                    e.insert(ChildOf(parents[(rng.next() % 20) as usize]));
+                    e.insert(ChildOf(parents[(rng.next_u32() % 20) as usize]));
                 }
                 1 => {
                     e.insert(AccelStatic);
@@ -131,22 +131,22 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
         }
         // Move parents and some entities.
         for &p in &parents {
-            world.get_mut::<Transform>(p).unwrap().translation += rng.vec3(2.0);
+            world.get_mut::<Transform>(p).unwrap().translation += rng.vec3(-2.0, 2.0);
         }
         for _ in 0..100 {
-            let e = live[(rng.next() as usize) % live.len()];
+            let e = live[(rng.next_u32() as usize) % live.len()];
             if let Some(mut t) = world.get_mut::<Transform>(e) {
-                t.translation += rng.vec3(5.0);
+                t.translation += rng.vec3(-5.0, 5.0);
             }
         }
         // Reparent a few, toggle markers on a few, despawn some.
         for _ in 0..5 {
-            let e = live[(rng.next() as usize) % live.len()];
-            let p = parents[(rng.next() % 20) as usize];
+            let e = live[(rng.next_u32() as usize) % live.len()];
+            let p = parents[(rng.next_u32() % 20) as usize];
             world.entity_mut(e).insert(ChildOf(p));
         }
         for _ in 0..5 {
-            let e = live[(rng.next() as usize) % live.len()];
+            let e = live[(rng.next_u32() as usize) % live.len()];
             let mut em = world.entity_mut(e);
             if em.contains::<AccelIgnore>() {
                 em.remove::<AccelIgnore>();
@@ -157,7 +157,7 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
             }
         }
         for _ in 0..40 {
-            let i = (rng.next() as usize) % live.len();
+            let i = (rng.next_u32() as usize) % live.len();
             let e = live.swap_remove(i);
             world.despawn(e);
         }
@@ -168,7 +168,7 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
             live.retain(|&e| world.get_entity(e).is_ok());
             parents.push(
                 world
-                    .spawn(Transform::from_translation(rng.vec3(50.0)))
+                    .spawn(Transform::from_translation(rng.vec3(-50.0, 50.0)))
                     .id(),
             );
         }

@@ -2,6 +2,7 @@
 //! them, shared by `picking` (criterion, one contender after another) and `picking_ratio`
 //! (`AccelRayCast` and `MeshRayCast` interleaved).
 
+use accel_testkit::Rng;
 use bevy::prelude::*;
 use bevy_accel::picking::{AccelPickingSettings, SlotMeshTable, SlotMeshTableMode};
 use bevy_accel::prelude::*;
@@ -9,20 +10,6 @@ use bevy_accel::prelude::*;
 #[path = "../../tests/common/mod.rs"]
 mod common;
 use common::headless_app;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * 2.0 * s
-    }
-}
 
 /// A world of `n` meshes (a 1,024-triangle sphere and a 1,024-triangle torus), at the density
 /// of 1 entity per 64 cubic units, and rays aimed through it. `is_static` marks every entity
@@ -68,16 +55,12 @@ pub fn world(
         ]
     };
     let half = (n as f32 * 64.0).cbrt() / 2.0;
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let batch: Vec<_> = (0..n)
         .map(|i| {
-            let t = Transform::from_translation(rng.vec3(half))
-                .with_rotation(Quat::from_rotation_y(rng.next() * 6.0))
-                .with_scale(Vec3::new(
-                    1.0 + rng.next(),
-                    1.0 + rng.next(),
-                    1.0 + rng.next(),
-                ));
+            let t = Transform::from_translation(rng.vec3(-half, half))
+                .with_rotation(Quat::from_rotation_y(rng.f32() * 6.0))
+                .with_scale(Vec3::new(1.0 + rng.f32(), 1.0 + rng.f32(), 1.0 + rng.f32()));
             (t, Mesh3d(meshes[i % 2].clone()))
         })
         .collect();
@@ -105,8 +88,8 @@ pub fn world(
     }
     let rays = (0..1024)
         .map(|_| {
-            let origin = rng.vec3(half * 1.2);
-            let target = rng.vec3(half * 0.5);
+            let origin = rng.vec3(-half * 1.2, half * 1.2);
+            let target = rng.vec3(-half * 0.5, half * 0.5);
             Ray3d::new(origin, Dir3::new(target - origin).unwrap_or(Dir3::X))
         })
         .collect();

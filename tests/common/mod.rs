@@ -84,38 +84,3 @@ pub fn app() -> App {
     app.finish();
     app
 }
-
-/// A small deterministic generator (PCG-XSH-RR) for the tests' scenes: fixed seeds, the same
-/// numbers on every machine.
-pub struct Rng(pub u64);
-
-impl Rng {
-    /// The next 32 random bits.
-    pub fn next(&mut self) -> u32 {
-        let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((((old >> 18) ^ old) >> 27) as u32).rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn f32(&mut self) -> f32 {
-        (self.next() >> 8) as f32 / (1 << 24) as f32
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    /// Uniform in the cube `[-s, s)^3`.
-    pub fn vec3(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
-    }
-
-    /// True with probability `p`.
-    pub fn chance(&mut self, p: f32) -> bool {
-        self.f32() < p
-    }
-}

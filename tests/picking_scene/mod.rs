@@ -2,7 +2,7 @@
 //! tests share.
 #![allow(dead_code)]
 
-use crate::common::Rng;
+use accel_testkit::Rng;
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::RenderLayers;
 use bevy::ecs::system::RunSystemOnce;
@@ -60,21 +60,21 @@ pub const TEST_MESHES: usize = 12;
 /// A random scene of `n` mesh entities (some hidden, on other layers, double-sided, with a
 /// simplified mesh, blocking) and a few mesh-less entities with bounds only.
 pub fn populate(app: &mut App, n: usize, seed: u64) -> Vec<Entity> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::from_state(seed);
     let handles = test_meshes(&mut app.world_mut().resource_mut::<Assets<Mesh>>());
     let world = app.world_mut();
     let mut out = Vec::new();
     for _ in 0..n {
-        let axis = rng.vec3(1.0).normalize_or(Vec3::Y);
+        let axis = rng.vec3(-1.0, 1.0).normalize_or(Vec3::Y);
         let scale = Vec3::new(
             rng.range(0.3, 3.0),
             rng.range(0.3, 3.0),
             rng.range(0.3, 3.0),
         );
-        let transform = Transform::from_translation(rng.vec3(50.0))
+        let transform = Transform::from_translation(rng.vec3(-50.0, 50.0))
             .with_rotation(Quat::from_axis_angle(axis, rng.range(0.0, 6.3)))
             .with_scale(scale);
-        let mesh = handles[rng.next() as usize % handles.len()].clone();
+        let mesh = handles[rng.next_u32() as usize % handles.len()].clone();
         let mut e = world.spawn((transform, Mesh3d(mesh)));
         if rng.chance(0.1) {
             e.insert(Visibility::Hidden);
@@ -96,7 +96,7 @@ pub fn populate(app: &mut App, n: usize, seed: u64) -> Vec<Entity> {
         out.push(e.id());
     }
     for _ in 0..n / 20 {
-        let t = Transform::from_translation(rng.vec3(50.0));
+        let t = Transform::from_translation(rng.vec3(-50.0, 50.0));
         world.spawn((t, Aabb::from_min_max(Vec3::splat(-1.0), Vec3::splat(1.0))));
     }
     app.update();
@@ -105,8 +105,8 @@ pub fn populate(app: &mut App, n: usize, seed: u64) -> Vec<Entity> {
 }
 
 pub fn random_ray(rng: &mut Rng) -> Ray3d {
-    let origin = rng.vec3(70.0);
-    let target = rng.vec3(45.0);
+    let origin = rng.vec3(-70.0, 70.0);
+    let target = rng.vec3(-45.0, 45.0);
     Ray3d::new(origin, Dir3::new(target - origin).unwrap_or(Dir3::X))
 }
 
@@ -200,7 +200,7 @@ pub fn equivalence(app: &mut App, rays: usize, seed: u64) -> Tally {
                   mut bevy: MeshRayCast,
                   layers: Query<&RenderLayers>,
                   blockers: Query<(), With<Blocker>>| {
-                let mut rng = Rng(seed);
+                let mut rng = Rng::from_state(seed);
                 let mut tally = Tally::default();
                 let on_layer_0 = |e| {
                     layers

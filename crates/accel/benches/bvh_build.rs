@@ -20,6 +20,7 @@ mod common;
 use accel::bvh::stats::tree_stats;
 use accel::query::BoundingTree;
 use accel::{Aabb, BuildConfig, Bvh, SahCosts, SplitStrategy, Triangle};
+use accel_testkit::{entity_boxes, triangle_scene};
 use common::peers::{self, BvhCrateTree, BvhShape, ObvhsBvh2};
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use obvhs::BvhBuildParams;
@@ -41,7 +42,7 @@ trait Built {
     fn report(&self) -> Report;
 }
 
-fn binary_report<T: BoundingTree>(tree: &T, nodes: usize, bytes: usize) -> Report {
+fn binary_report<T: BoundingTree<Volume = Aabb>>(tree: &T, nodes: usize, bytes: usize) -> Report {
     Report {
         nodes,
         sah: Some(tree_stats(tree, &SahCosts::default()).sah_cost),
@@ -238,11 +239,11 @@ fn bench_group(c: &mut Criterion, group: &str, prims: usize, contenders: &[Conte
 }
 
 fn builds(c: &mut Criterion) {
-    let boxes = common::entity_boxes(100_000, 1);
+    let boxes = entity_boxes(100_000, 1);
     let box_c = box_contenders(&boxes);
     print_reports("build_100k_boxes", boxes.len(), &box_c);
 
-    let tris = common::triangle_scene(1_000_000, 2);
+    let tris = triangle_scene(1_000_000, 2);
     let tri_c = tri_contenders(&tris);
     print_reports("build_1m_tris", tris.len(), &tri_c);
 

@@ -23,6 +23,7 @@ use accel::{
     Aabb, Backfaces, BuildConfig, Bvh, Containment, Frustum, Ray, SpatialQuery, SplitStrategy,
     Triangle, WatertightRay,
 };
+use accel_testkit::{TRI_EXTENT, entity_boxes, triangle_scene};
 use common::peers::{self, BvhShape};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3A;
@@ -332,9 +333,9 @@ fn frustum_contenders(boxes: &[Aabb]) -> Vec<(String, Cull<'_>)> {
 }
 
 fn queries(c: &mut Criterion) {
-    let tris = common::triangle_scene(1_000_000, 2);
+    let tris = triangle_scene(1_000_000, 2);
     let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
-    let rays = common::incoherent_rays(RAYS_PER_ITER, common::TRI_EXTENT, 3);
+    let rays = common::incoherent_rays(RAYS_PER_ITER, TRI_EXTENT, 3);
     let contenders = ray_contenders(&tris, &boxes, &rays);
     check_rays(&contenders, CHECKED_RAYS);
     println!("| contender | bytes/tri |\n|---|---:|");
@@ -360,7 +361,7 @@ fn queries(c: &mut Criterion) {
     g.finish();
     drop(contenders);
 
-    let boxes = common::entity_boxes(1_000_000, 4);
+    let boxes = entity_boxes(1_000_000, 4);
     let (frustum, visible) = common::frustum_selecting(&boxes, 0.05);
     println!(
         "\nfrustum: {visible} of {} boxes not outside ({:.2}%)",

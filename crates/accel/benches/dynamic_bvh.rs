@@ -12,7 +12,8 @@ const N: usize = 100_000;
 
 #[path = "common/dynamic_workload.rs"]
 mod dynamic_workload;
-use dynamic_workload::{Rng, built_tree as tree, scene};
+use accel_testkit::Rng;
+use dynamic_workload::{built_tree as tree, scene};
 
 fn to_obvhs(b: &Aabb) -> obvhs::aabb::Aabb {
     obvhs::aabb::Aabb::new(b.min, b.max)
@@ -22,14 +23,14 @@ fn quality_run() {
     let boxes = scene(N, 1);
     let mut boxes_now = boxes.clone();
     let (mut t, hs) = tree(&boxes);
-    let mut r = Rng(2);
+    let mut r = Rng::new(2);
     let (mut opt_total, mut opt_max, mut maintain_total) =
         (Duration::ZERO, Duration::ZERO, Duration::ZERO);
     let mut rebuilds = 0;
     for _ in 0..1000 {
         for _ in 0..N / 10 {
             let i = r.below(N);
-            let d = r.v(-1.0, 1.0);
+            let d = r.vec3a(-1.0, 1.0);
             boxes_now[i] = Aabb::new(boxes_now[i].min + d, boxes_now[i].max + d);
             t.update(hs[i], boxes_now[i]).unwrap();
         }

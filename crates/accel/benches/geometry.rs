@@ -3,27 +3,17 @@
 //! hoist anything), and criterion's time per iteration is divided by the batch size through
 //! `Throughput::Elements`.
 
-#[path = "../tests/support/mod.rs"]
-mod support;
-
 use accel::{Aabb, Backfaces, Frustum, Ray, Sphere, Triangle, WatertightRay};
+use accel_testkit::Rng;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Affine3A, Mat4, Quat, Vec3, Vec3A};
 use std::hint::black_box;
-use support::Rng;
 
 const BATCH: usize = 1024;
 
+/// A box within 10 of the origin, half extents 0.1 to 2.
 fn random_box(rng: &mut Rng) -> Aabb {
-    let c = rng.vec3a(-10.0, 10.0);
-    Aabb::from_center_half_extents(
-        c,
-        Vec3A::new(
-            rng.range(0.1, 2.0),
-            rng.range(0.1, 2.0),
-            rng.range(0.1, 2.0),
-        ),
-    )
+    accel_testkit::random_box(rng, 10.0, 0.1..2.0)
 }
 
 /// Rays from a shell around the scene aimed at a point of each box (hit) or well beside it (miss).
@@ -31,11 +21,11 @@ fn ray_box_pairs(rng: &mut Rng, hit: bool) -> Vec<(Ray, Aabb)> {
     (0..BATCH)
         .map(|_| {
             let b = random_box(rng);
-            let o = rng.unit_vec3a() * 50.0;
+            let o = rng.unit_vector_f64() * 50.0;
             let target = if hit {
                 b.center() + b.half_extents() * rng.vec3a(-0.9, 0.9)
             } else {
-                b.center() + rng.unit_vec3a() * 20.0
+                b.center() + rng.unit_vector_f64() * 20.0
             };
             (Ray::new(o, target - o), b)
         })
@@ -66,8 +56,8 @@ fn bench_ray_sphere(c: &mut Criterion) {
     let pairs: Vec<(Ray, Sphere)> = (0..BATCH)
         .map(|_| {
             let s = Sphere::new(rng.vec3a(-10.0, 10.0), rng.range(0.1, 2.0));
-            let o = rng.unit_vec3a() * 50.0;
-            let target = s.center + rng.unit_vec3a() * s.radius * rng.range(0.0, 2.0);
+            let o = rng.unit_vector_f64() * 50.0;
+            let target = s.center + rng.unit_vector_f64() * s.radius * rng.range(0.0, 2.0);
             (Ray::new(o, target - o), s)
         })
         .collect();
@@ -104,7 +94,7 @@ fn bench_ray_triangle(c: &mut Criterion) {
                 } else {
                     inside + (inside - a) * 3.0
                 };
-                let o = rng.unit_vec3a() * 50.0;
+                let o = rng.unit_vector_f64() * 50.0;
                 (WatertightRay::new(&Ray::new(o, target - o)), tri)
             })
             .filter(|(r, t)| r.intersect(t, Backfaces::Include).is_some() == hit)
@@ -163,7 +153,7 @@ fn bench_transform(c: &mut Criterion) {
     let mut rng = Rng::new(5);
     let cases: Vec<(Aabb, Affine3A)> = (0..BATCH)
         .map(|_| {
-            let q = Quat::from_axis_angle(rng.unit_vec3a().into(), rng.range(0.0, 6.3));
+            let q = Quat::from_axis_angle(rng.unit_vector_f64().into(), rng.range(0.0, 6.3));
             let m = Affine3A::from_scale_rotation_translation(
                 Vec3::splat(rng.range(0.5, 2.0)),
                 q,

@@ -11,13 +11,8 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(100_000);
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rng = accel_testkit::Rng::new(0x2545_f491_4f6c_dd1d);
+    let mut next = move || rng.f32();
     let boxes: Vec<Aabb> = (0..n)
         .map(|_| {
             let c = Vec3A::new(next(), next(), next()) * 200.0 - 100.0;

@@ -20,7 +20,8 @@
 mod dynamic_workload;
 
 use accel::{Aabb, BuildConfig, DynamicBvhConfig, SplitStrategy};
-use dynamic_workload::{Rng, built_tree as tree, scene};
+use accel_testkit::Rng;
+use dynamic_workload::{built_tree as tree, scene};
 use glam::Vec3A;
 use std::time::{Duration, Instant};
 
@@ -77,7 +78,7 @@ fn memory_floor() -> (f64, f64, f64) {
     struct Line([u32; 16]);
     let n = 2 * N;
     let mut order: Vec<u32> = (0..n as u32).collect();
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     for i in (1..n).rev() {
         order.swap(i, rng.below(i + 1));
     }
@@ -193,7 +194,7 @@ fn main() {
 
     let mut moving = boxes.clone();
     let (mut t, hs) = tree(&boxes);
-    let mut rng = Rng(2);
+    let mut rng = Rng::new(2);
     let (mut updates, mut refits, mut rests) = (Vec::new(), Vec::new(), Vec::new());
     let mut rebuilds = 0;
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
@@ -201,7 +202,7 @@ fn main() {
         let s = Instant::now();
         for _ in 0..N / 10 {
             let i = rng.below(N);
-            let d = rng.v(-1.0, 1.0);
+            let d = rng.vec3a(-1.0, 1.0);
             moving[i] = Aabb::new(moving[i].min + d, moving[i].max + d);
             t.update(hs[i], moving[i]).expect("live handle");
         }

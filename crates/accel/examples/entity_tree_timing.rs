@@ -15,13 +15,8 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(1_000_000);
-    let mut state = 7u64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rng = accel_testkit::Rng::new(7);
+    let mut next = move || rng.f32();
     // One entity per 64 cubic units, as in the plugin's picking bench.
     let half = (n as f32 * 64.0).cbrt() / 2.0;
     let boxes: Vec<Aabb> = (0..n)

@@ -34,25 +34,8 @@ fn obvhs_tris(vertices: &[Vec3], indices: &[u32]) -> Vec<obvhs::triangle::Triang
 }
 
 fn main() {
-    let (rings, segments) = (708u32, 708u32);
-    let mut vertices = Vec::new();
-    for r in 0..=rings {
-        let phi = core::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..segments {
-            let theta = core::f32::consts::TAU * s as f32 / segments as f32;
-            vertices.push(
-                Vec3::new(phi.sin() * theta.cos(), phi.cos(), phi.sin() * theta.sin()) * 10.0,
-            );
-        }
-    }
-    let mut indices = Vec::new();
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b) = (r * segments + s, r * segments + (s + 1) % segments);
-            let (c, d) = (a + segments, b + segments);
-            indices.extend_from_slice(&[a, c, b, b, c, d]);
-        }
-    }
+    let sphere = accel_testkit::shapes::uv_sphere(708, 708, 10.0);
+    let (vertices, indices) = (sphere.positions(), sphere.flat_indices());
     let n = indices.len() / 3;
     let rate = |seconds: f64| n as f64 / seconds / 1e6;
     let mut mesh = MeshBvh::new(&vertices, &indices).expect("valid mesh");

@@ -47,6 +47,7 @@ use accel::{
     Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, SplitStrategy, Triangle,
     WatertightRay,
 };
+use accel_testkit::{InstancedTriangles, TRI_EXTENT, instanced_triangle_scene};
 use glam::{Affine3A, Vec3A};
 use obvhs::BvhBuildParams;
 use std::sync::Arc;
@@ -104,7 +105,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// A pinhole camera's pixel grid in scanline order, looking at the scene's centre from outside.
 fn primary_rays() -> Vec<(Vec3A, Vec3A, f32)> {
     let side = (RAYS as f64).sqrt().ceil() as usize;
-    let eye = Vec3A::new(0.0, 0.5, 2.5) * common::TRI_EXTENT;
+    let eye = Vec3A::new(0.0, 0.5, 2.5) * TRI_EXTENT;
     let forward = (-eye).normalize();
     let right = forward.cross(Vec3A::Y).normalize();
     let up = right.cross(forward);
@@ -125,7 +126,7 @@ fn primary_rays() -> Vec<(Vec3A, Vec3A, f32)> {
 
 /// From each primary hit (moved back along the primary ray), towards a point light above.
 fn shadow_rays(primary: &[(Vec3A, Vec3A, f32)], mesh: &MeshBvh) -> Vec<(Vec3A, Vec3A, f32)> {
-    let light = Vec3A::new(0.3, 4.0, 0.2) * common::TRI_EXTENT;
+    let light = Vec3A::new(0.3, 4.0, 0.2) * TRI_EXTENT;
     let points: Vec<Vec3A> = primary
         .iter()
         .filter_map(|&(o, d, _)| {
@@ -155,13 +156,8 @@ fn diffuse_rays(primary: &[(Vec3A, Vec3A, f32)], mesh: &MeshBvh) -> Vec<(Vec3A, 
             Some((o + d * hit.t + n * 1e-3, n))
         })
         .collect();
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rng = accel_testkit::Rng::new(0x2545_f491_4f6c_dd1d);
+    let mut uniform = move || rng.f32();
     (0..RAYS)
         .map(|i| {
             let (p, n) = surfaces[i % surfaces.len()];
@@ -214,10 +210,7 @@ fn triangle_list(tris: &[Triangle]) -> (Vec<glam::Vec3>, Vec<u32>) {
 /// The scene as two levels: one bunny mesh BVH under every copy's transform, and the large
 /// triangles as one more mesh in place; each mesh built by `MeshBvh::new`, or with spatial
 /// splits when `splits` is given.
-fn instanced_scene(
-    parts: &common::InstancedTriangles,
-    splits: Option<&SpatialSplits>,
-) -> InstancedScene {
+fn instanced_scene(parts: &InstancedTriangles, splits: Option<&SpatialSplits>) -> InstancedScene {
     let build = |tris: &[Triangle]| {
         let (vertices, indices) = triangle_list(tris);
         Arc::new(
@@ -244,7 +237,7 @@ fn instanced_scene(
     let cells = loose_cells();
     let mut groups: Vec<Vec<Triangle>> = vec![Vec::new(); cells * cells * cells];
     for t in &parts.loose {
-        let cell = ((t.aabb().center() / common::TRI_EXTENT * 0.5 + 0.5) * cells as f32)
+        let cell = ((t.aabb().center() / TRI_EXTENT * 0.5 + 0.5) * cells as f32)
             .as_uvec3()
             .min(glam::UVec3::splat(cells as u32 - 1));
         groups[(cell.x as usize * cells + cell.y as usize) * cells + cell.z as usize].push(*t);
@@ -336,7 +329,7 @@ fn main() {
         .and_then(|a| a.parse().ok())
         .unwrap_or(11);
     let only = std::env::args().nth(2).unwrap_or_default();
-    let parts = common::instanced_triangle_scene(1_000_000, 2);
+    let parts = instanced_triangle_scene(1_000_000, 2);
     let tris = parts.flatten();
     let boxes: Vec<Aabb> = tris.iter().map(Triangle::aabb).collect();
     let (vertices, indices) = triangle_list(&tris);
@@ -356,7 +349,7 @@ fn main() {
     let primary = primary_rays();
     let shadow = shadow_rays(&primary, &mesh);
     let diffuse = diffuse_rays(&primary, &mesh);
-    let incoherent: Vec<_> = common::incoherent_rays(RAYS, common::TRI_EXTENT, 3)
+    let incoherent: Vec<_> = common::incoherent_rays(RAYS, TRI_EXTENT, 3)
         .into_iter()
         .map(|(o, d)| (o, d, f32::INFINITY))
         .collect();

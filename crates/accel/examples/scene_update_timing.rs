@@ -48,18 +48,15 @@ fn main() {
     let frames: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(100);
     let half_side = 50.0 * (count as f32 / 1000.0).cbrt();
 
-    let bunny = common::load_obj(&common::bunny_path());
+    let bunny = accel_testkit::bunny();
     let (vertices, indices): (Vec<Vec3>, Vec<u32>) = (
-        bunny
-            .iter()
-            .flat_map(|t| t.vertices.map(Vec3::from))
-            .collect(),
-        (0..bunny.len() as u32 * 3).collect(),
+        bunny.triangles().flat_map(|t| t.map(Vec3::from)).collect(),
+        (0..bunny.indices.len() as u32 * 3).collect(),
     );
     let mesh = Arc::new(MeshBvh::new(&vertices, &indices).expect("the bunny"));
     let size = mesh.bounds().extent().max_element();
 
-    let mut rng = common::Rng::new(7);
+    let mut rng = accel_testkit::Rng::new(7);
     let mut placements: Vec<Affine3A> = (0..count)
         .map(|_| {
             let rotation = Quat::from_axis_angle(
@@ -69,7 +66,7 @@ fn main() {
             Affine3A::from_scale_rotation_translation(
                 Vec3::splat(rng.range(2.0, 6.0) / size),
                 rotation,
-                rng.vec3(-half_side, half_side).into(),
+                rng.vec3(-half_side, half_side),
             )
         })
         .collect();
@@ -99,11 +96,10 @@ fn main() {
         for _ in 0..frames {
             let updates: Vec<(u32, Instance)> = (0..moving)
                 .map(|_| {
-                    let i = rng.below(count as u32);
-                    let moved = Affine3A::from_translation(Vec3::from(rng.vec3(-step, step)))
-                        * placements[i as usize];
-                    placements[i as usize] = moved;
-                    (i, instance(moved))
+                    let i = rng.below(count);
+                    let moved = Affine3A::from_translation(rng.vec3(-step, step)) * placements[i];
+                    placements[i] = moved;
+                    (i as u32, instance(moved))
                 })
                 .collect();
             let started = Instant::now();

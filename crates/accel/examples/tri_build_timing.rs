@@ -38,7 +38,7 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(7);
-    let tris = common::triangle_scene(1_000_000, 2);
+    let tris = accel_testkit::triangle_scene(1_000_000, 2);
     let ot: Vec<obvhs::triangle::Triangle> = tris.iter().map(common::peers::to_obvhs_tri).collect();
     // The tinybvh rows share one peer; a `RefCell` lends it to each in turn.
     let peer = common::tinybvh::TinyBvh::from_env(&tris).map(std::cell::RefCell::new);

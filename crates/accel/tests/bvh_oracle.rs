@@ -7,8 +7,9 @@ use accel::bvh::SphereBvh;
 use accel::bvh::stats::tree_stats;
 use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8, WideBvh};
 use accel::{Aabb, BuildConfig, Bvh, RayHit, SahCosts, SpatialQuery, Sphere, SplitStrategy};
+use accel_testkit::{BoxScene, Rng, box_scene};
 use core::ops::ControlFlow;
-use scenes::{Rng, SceneKind, frustum_hits, random_frustum, rays, scene};
+use scenes::{frustum_hits, random_frustum, rays};
 
 const STRATEGIES: [SplitStrategy; 9] = [
     SplitStrategy::Midpoint,
@@ -190,13 +191,13 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
                 })
             })
             .collect();
-        accel::query::binary::sort_hits(&mut want_all);
+        accel::query::sort_hits(&mut want_all);
         assert_eq!(all, want_all);
     }
     // Overlaps: box, sphere, point.
     let mut rng = Rng::new(seed);
     for _ in 0..n_queries {
-        let q = Aabb::from_center_half_extents(rng.vec3(-extent, extent), rng.vec3(0.0, 30.0));
+        let q = Aabb::from_center_half_extents(rng.vec3a(-extent, extent), rng.vec3a(0.0, 30.0));
         let mut got = Vec::new();
         bvh.for_each_overlapping_aabb(&q, |i| {
             if boxes[i as usize].intersects_aabb(&q) {
@@ -210,7 +211,7 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
             .collect();
         assert_eq!(got, want, "aabb overlap");
 
-        let s = Sphere::new(rng.vec3(-extent, extent), rng.range(0.0, 40.0));
+        let s = Sphere::new(rng.vec3a(-extent, extent), rng.range(0.0, 40.0));
         let mut got = Vec::new();
         bvh.for_each_overlapping_sphere(&s, |i| {
             if s.intersects_aabb(&boxes[i as usize]) {
@@ -224,7 +225,7 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
             .collect();
         assert_eq!(got, want, "sphere overlap");
 
-        let p = rng.vec3(-extent, extent);
+        let p = rng.vec3a(-extent, extent);
         let mut got = Vec::new();
         bvh.for_each_containing_point(p, |i| {
             if boxes[i as usize].contains_point(p) {
@@ -239,7 +240,7 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
         assert_eq!(got, want, "point containment");
 
         // k nearest by box distance.
-        let k = 1 + rng.below(8) as usize;
+        let k = 1 + rng.below(8);
         let got = bvh.nearest_k(p, k, |i| boxes[i as usize].distance_squared_to_point(p));
         let mut want: Vec<(u32, f32)> = (0..boxes.len() as u32)
             .map(|i| (i, boxes[i as usize].distance_squared_to_point(p)))
@@ -262,14 +263,10 @@ fn check_queries(bvh: &impl SpatialQuery, boxes: &[Aabb], seed: u64, n_queries: 
 fn every_strategy_matches_brute_force_on_every_scene_kind() {
     let mut seed = 1;
     for cfg in configs() {
-        for kind in [
-            SceneKind::Uniform,
-            SceneKind::Clustered,
-            SceneKind::Degenerate,
-        ] {
+        for kind in [BoxScene::Uniform, BoxScene::Clustered, BoxScene::Degenerate] {
             for n in [1, 2, 3, 17, 300] {
                 seed += 1;
-                let boxes = scene(kind, n, seed);
+                let boxes = box_scene(kind, n, seed);
                 check_scene(&boxes, &cfg, seed, 40);
             }
         }
@@ -278,14 +275,10 @@ fn every_strategy_matches_brute_force_on_every_scene_kind() {
 
 /// Uniform, clustered and degenerate scenes of 20,000 boxes (seeds from `seed`).
 fn large_scenes(seed: u64) -> impl Iterator<Item = Vec<Aabb>> {
-    [
-        SceneKind::Uniform,
-        SceneKind::Clustered,
-        SceneKind::Degenerate,
-    ]
-    .into_iter()
-    .enumerate()
-    .map(move |(i, kind)| scene(kind, 20_000, seed + i as u64))
+    [BoxScene::Uniform, BoxScene::Clustered, BoxScene::Degenerate]
+        .into_iter()
+        .enumerate()
+        .map(move |(i, kind)| box_scene(kind, 20_000, seed + i as u64))
 }
 
 #[test]
@@ -297,7 +290,7 @@ fn large_scenes_match_brute_force() {
 
 #[test]
 fn a_million_primitives_build_validate_and_query() {
-    let boxes = scene(SceneKind::Uniform, 1_000_000, 5);
+    let boxes = box_scene(BoxScene::Uniform, 1_000_000, 5);
     let bvh = Bvh::build(&boxes, &BuildConfig::default());
     bvh.validate(&boxes).unwrap();
     let bvh8 = Bvh8::from_bvh(&bvh);
@@ -343,7 +336,7 @@ fn a_million_identical_boxes_terminate_with_small_leaves() {
 /// half-infinite one are kept, and a ray far from everything else hits exactly the two that
 /// reach it.
 fn check_invalid_and_infinite_boxes(cfg: &BuildConfig) {
-    let mut boxes = scene(SceneKind::Uniform, 100, 3);
+    let mut boxes = box_scene(BoxScene::Uniform, 100, 3);
     boxes[5] = Aabb::new(glam::Vec3A::NAN, glam::Vec3A::ONE);
     boxes[6] = Aabb::EMPTY;
     boxes[7] = Aabb::EVERYTHING;
@@ -374,11 +367,11 @@ fn sah_cost_of(boxes: &[Aabb], split: SplitStrategy) -> f32 {
 }
 
 /// Uniform and clustered scenes of 50,000 boxes (seeds from `seed`).
-fn sah_scenes(seed: u64) -> impl Iterator<Item = (SceneKind, Vec<Aabb>)> {
-    [SceneKind::Uniform, SceneKind::Clustered]
+fn sah_scenes(seed: u64) -> impl Iterator<Item = (BoxScene, Vec<Aabb>)> {
+    [BoxScene::Uniform, BoxScene::Clustered]
         .into_iter()
         .enumerate()
-        .map(move |(i, kind)| (kind, scene(kind, 50_000, seed + i as u64)))
+        .map(move |(i, kind)| (kind, box_scene(kind, 50_000, seed + i as u64)))
 }
 
 #[test]
@@ -394,11 +387,11 @@ fn binned_sah_is_within_three_percent_of_sweep_sah() {
 
 #[test]
 fn refit_keeps_the_tree_valid_and_queries_exact() {
-    let mut boxes = scene(SceneKind::Uniform, 5_000, 21);
+    let mut boxes = box_scene(BoxScene::Uniform, 5_000, 21);
     let mut bvh = Bvh::build(&boxes, &BuildConfig::default());
     let mut rng = Rng::new(4);
     for b in boxes.iter_mut().step_by(3) {
-        let d = rng.vec3(-20.0, 20.0);
+        let d = rng.vec3a(-20.0, 20.0);
         *b = Aabb::new(b.min + d, b.max + d);
     }
     bvh.refit(&boxes);
@@ -423,15 +416,11 @@ fn empty_tree_answers_nothing() {
 #[cfg(feature = "rayon")]
 #[test]
 fn parallel_build_equals_serial_build() {
-    for (i, kind) in [
-        SceneKind::Uniform,
-        SceneKind::Clustered,
-        SceneKind::Degenerate,
-    ]
-    .into_iter()
-    .enumerate()
+    for (i, kind) in [BoxScene::Uniform, BoxScene::Clustered, BoxScene::Degenerate]
+        .into_iter()
+        .enumerate()
     {
-        let boxes = scene(kind, 100_000, 40 + i as u64);
+        let boxes = box_scene(kind, 100_000, 40 + i as u64);
         let cfg = BuildConfig::default();
         let serial = Bvh::build(&boxes, &cfg);
         let parallel = Bvh::build_parallel(&boxes, &cfg);
@@ -520,7 +509,7 @@ fn ploc_stays_shallow_on_nested_boxes() {
 /// without SAH termination; the SAH collapse never makes the tree costlier than leaves of one.
 #[test]
 fn ploc_honours_the_stopping_rules() {
-    let boxes = scene(SceneKind::Clustered, 5_000, 8);
+    let boxes = box_scene(BoxScene::Clustered, 5_000, 8);
     for split in ploc_strategies() {
         let singles = tree_stats(
             &Bvh::build(
@@ -596,7 +585,7 @@ fn lbvh_matches_brute_force_and_honours_its_stopping_rules() {
     }
     check_invalid_and_infinite_boxes(&cfg);
     check_tiny_inputs(&cfg);
-    let boxes = scene(SceneKind::Clustered, 5_000, 8);
+    let boxes = box_scene(BoxScene::Clustered, 5_000, 8);
     for max_leaf_size in [1, 2, 4, 8, 16] {
         let cfg = BuildConfig {
             max_leaf_size,
@@ -637,8 +626,8 @@ fn inlined_leaf_ids_case<const N: usize>() {
         max_leaf_size: 1,
         ..BuildConfig::default()
     };
-    for (kind, seed) in [(SceneKind::Uniform, 1), (SceneKind::Clustered, 2)] {
-        let mut boxes = scene(kind, 3_000, seed);
+    for (kind, seed) in [(BoxScene::Uniform, 1), (BoxScene::Clustered, 2)] {
+        let mut boxes = box_scene(kind, 3_000, seed);
         let bvh = Bvh::build(&boxes, &one_per_leaf);
         let mut plain = WideBvh::<N>::from_bvh(&bvh);
         let mut inlined = plain.clone();
@@ -677,7 +666,7 @@ fn inlined_leaf_ids_case<const N: usize>() {
             }
             // Move a third of the boxes and refit both.
             for b in boxes.iter_mut().step_by(3) {
-                let d = rng.vec3(-15.0, 15.0);
+                let d = rng.vec3a(-15.0, 15.0);
                 *b = Aabb::new(b.min + d, b.max + d);
             }
             plain.refit(|p| boxes[p as usize]);

@@ -18,8 +18,9 @@ mod scenes;
 
 use accel::dynamic::{DynamicBvh, DynamicBvhConfig, DynamicBvhError, LeafHandle};
 use accel::{Aabb, SpatialQuery};
+use accel_testkit::Rng;
 use glam::Vec3A;
-use scenes::{Rng, check_ids, check_queries, random_box};
+use scenes::{check_ids, check_queries, random_box};
 use std::collections::HashMap;
 
 struct Soak {
@@ -65,16 +66,16 @@ fn soak(s: Soak) {
         // the suite's time budget (the benchmarks cover 10% of 100k moving).
         let movers = (order.len() / 20).clamp(1, 300).min(order.len());
         for _ in 0..movers {
-            let id = order[rng.below(order.len() as u32) as usize];
+            let id = order[rng.below(order.len())];
             let old = model[&id];
             let b = match rng.below(10) {
                 0 => random_box(&mut rng, s.extent),
                 1..=4 => {
-                    let d = rng.vec3(-3.0, 3.0);
+                    let d = rng.vec3a(-3.0, 3.0);
                     Aabb::new(old.min + d, old.max + d)
                 }
                 _ => {
-                    let d = rng.vec3(-0.05, 0.05);
+                    let d = rng.vec3a(-0.05, 0.05);
                     Aabb::new(old.min + d, old.max + d)
                 }
             };
@@ -88,12 +89,12 @@ fn soak(s: Soak) {
             s.max_handles / 2
         };
         let (spawns, despawns) = if order.len() < target {
-            (rng.below(40) as usize + 5, rng.below(20) as usize)
+            (rng.below(40) + 5, rng.below(20))
         } else {
-            (rng.below(20) as usize, rng.below(40) as usize + 5)
+            (rng.below(20), rng.below(40) + 5)
         };
         for _ in 0..despawns.min(order.len()) {
-            let k = rng.below(order.len() as u32) as usize;
+            let k = rng.below(order.len());
             let id = order.swap_remove(k);
             let h = handles.remove(&id).unwrap();
             assert_eq!(tree.remove(h), Ok(id));
@@ -255,16 +256,16 @@ fn quality_estimate_tracks_a_fresh_build_as_the_scene_changes() {
     for frame in 1..=600u32 {
         let spread = 1.0 + frame as f32 / 600.0;
         for _ in 0..2_000 {
-            let k = rng.below(boxes.len() as u32) as usize;
+            let k = rng.below(boxes.len());
             let (h, old) = boxes[k];
-            let d = rng.vec3(-2.0, 2.0) + old.center() * (spread.powf(1.0 / 600.0) - 1.0);
+            let d = rng.vec3a(-2.0, 2.0) + old.center() * (spread.powf(1.0 / 600.0) - 1.0);
             let b = Aabb::new(old.min + d, old.max + d);
             t.update(h, b).unwrap();
             boxes[k].1 = b;
         }
         if frame > 300 {
             for _ in 0..20 {
-                let k = rng.below(boxes.len() as u32) as usize;
+                let k = rng.below(boxes.len());
                 let (h, _) = boxes.swap_remove(k);
                 t.remove(h).unwrap();
             }
@@ -448,10 +449,10 @@ fn optimizer_repairs_a_tree_that_refit_alone_lets_rot() {
         // 3% take a long stride each frame, always overlapping their old fat box (jumps
         // clear of it are reinserted, not refit): the drift that makes refit-only trees rot.
         for _ in 0..300 {
-            let k = rng.below(hs.len() as u32) as usize;
+            let k = rng.below(hs.len());
             let (a, b) = hs[k];
             let old = boxes[k];
-            let step = rng.vec3(-0.9, 0.9) * old.extent();
+            let step = rng.vec3a(-0.9, 0.9) * old.extent();
             let bx = Aabb::new(old.min + step, old.max + step);
             boxes[k] = bx;
             optimised.update(a, bx).unwrap();

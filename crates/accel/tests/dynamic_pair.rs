@@ -7,7 +7,8 @@ mod scenes;
 
 use accel::dynamic::{DynamicBvh, StaticDynamicPair};
 use accel::{Aabb, BuildConfig, Bvh};
-use scenes::{Rng, check_queries, random_box};
+use accel_testkit::Rng;
+use scenes::{check_queries, random_box};
 use std::collections::HashMap;
 
 #[test]
@@ -34,7 +35,7 @@ fn pair_answers_queries_over_both_trees_as_brute_force() {
     let static_before = pair.static_tree().nodes().to_vec();
     for round in 0..30 {
         for _ in 0..300 {
-            let k = rng.below(hs.len() as u32) as usize;
+            let k = rng.below(hs.len());
             let b = random_box(&mut rng, 80.0);
             pair.dynamic_mut().update(hs[k], b).unwrap();
             model.insert(10_000 + k as u32, b);
@@ -100,7 +101,7 @@ fn background_ray_snapshot_is_installed_only_if_the_tree_did_not_change() {
         if changed {
             // A change while the copy is made: it must be dropped, not installed.
             for _ in 0..200 {
-                let k = rng.below(hs.len() as u32) as usize;
+                let k = rng.below(hs.len());
                 let b = random_box(&mut rng, 80.0);
                 pair.dynamic_mut().update(hs[k], b).unwrap();
                 model.insert(k as u32, b);
@@ -149,8 +150,8 @@ fn announcing_walk_visits_what_the_plain_walk_visits() {
             assert!(pair.snapshot_dynamic_for_rays(&BuildConfig::default()));
         }
         for _ in 0..300 {
-            let origin = rng.vec3(-70.0, 70.0);
-            let ray = accel::Ray::new(origin, rng.vec3(-30.0, 30.0) - origin);
+            let origin = rng.vec3a(-70.0, 70.0);
+            let ray = accel::Ray::new(origin, rng.vec3a(-30.0, 30.0) - origin);
             let (mut plain, mut told, mut announced) = (Vec::new(), Vec::new(), Vec::new());
             pair.walk_ray(&mut ray.clone(), visitor(&mut plain));
             pair.walk_ray_announcing(&mut ray.clone(), |p| announced.push(p), visitor(&mut told));
@@ -204,7 +205,7 @@ fn ray_snapshot_survives_motion_and_matches_brute_force() {
         // Few movers in most rounds (path refits), most of them in some (a whole sweep).
         let movers = if round % 6 == 5 { 2_500 } else { 40 };
         for _ in 0..movers {
-            let k = rng.below(hs.len() as u32) as usize;
+            let k = rng.below(hs.len());
             let id = 10_000 + k as u32;
             let b = if rng.below(4) == 0 {
                 random_box(&mut rng, 80.0)
@@ -224,7 +225,7 @@ fn ray_snapshot_survives_motion_and_matches_brute_force() {
             // made while it was built.
             assert!(pair.refresh_dynamic_ray_snapshot(&config, true));
             for _ in 0..50 {
-                let k = rng.below(hs.len() as u32) as usize;
+                let k = rng.below(hs.len());
                 let b = random_box(&mut rng, 80.0);
                 pair.update_dynamic(hs[k], b).unwrap();
                 model.insert(10_000 + k as u32, b);

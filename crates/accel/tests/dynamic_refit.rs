@@ -5,9 +5,10 @@ mod scenes;
 
 use accel::dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 use accel::{Aabb, SpatialQuery};
+use accel_testkit::Rng;
 use core::ops::ControlFlow;
 use glam::Vec3A;
-use scenes::{Rng, check_ids, check_queries, random_box};
+use scenes::{check_ids, check_queries, random_box};
 use std::collections::HashMap;
 
 #[test]
@@ -71,7 +72,7 @@ fn mass_motion_frames_take_the_whole_tree_refit_and_stay_exact() {
                 let b = if rng.below(50) == 0 {
                     random_box(&mut rng, extent)
                 } else {
-                    let d = rng.vec3(-2.0, 2.0);
+                    let d = rng.vec3a(-2.0, 2.0);
                     Aabb::new(old.min + d, old.max + d)
                 };
                 t.update(handles[&id], b).unwrap();
@@ -79,7 +80,7 @@ fn mass_motion_frames_take_the_whole_tree_refit_and_stay_exact() {
             }
         }
         for _ in 0..50 {
-            let id = ids[rng.below(ids.len() as u32) as usize];
+            let id = ids[rng.below(ids.len())];
             if let Some(h) = handles.remove(&id) {
                 assert_eq!(t.remove(h), Ok(id));
                 model.remove(&id);
@@ -118,11 +119,11 @@ fn move_share(
     model: &mut HashMap<u32, Aabb>,
     handles: &HashMap<u32, LeafHandle>,
     rng: &mut Rng,
-    (share, step): (u32, f32),
+    (share, step): (usize, f32),
 ) {
     for (id, b) in model.iter_mut() {
         if rng.below(100) < share {
-            let d = rng.vec3(-step, step);
+            let d = rng.vec3a(-step, step);
             *b = Aabb::new(b.min + d, b.max + d);
             t.update(handles[id], *b).unwrap();
         }

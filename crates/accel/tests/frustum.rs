@@ -4,8 +4,9 @@
 mod support;
 
 use accel::{Aabb, Containment, Frustum, Sphere};
+use accel_testkit::Rng;
 use glam::{Affine3A, DMat3, DVec3, DVec4, Mat3, Mat4, Quat, Vec3, Vec3A};
-use support::{Rng, d};
+use support::d;
 
 /// Planes of the f32 matrix, extracted in f64 (Gribb-Hartmann, the same rows the crate uses), as
 /// unnormalised `(n, w)`; a zero normal means "everything" (w >= 0) or "nothing".
@@ -48,8 +49,8 @@ enum Kind {
 /// A random camera: eye up to 1e3 from the origin, random orientation, random projection.
 fn camera(rng: &mut Rng, kind: Kind) -> (Mat4, Vec3, f32) {
     let eye = Vec3::from(rng.vec3a(-1e3, 1e3));
-    let fwd = Vec3::from(rng.unit_vec3a());
-    let up = Vec3::from(rng.unit_vec3a());
+    let fwd = Vec3::from(rng.unit_vector_f64());
+    let up = Vec3::from(rng.unit_vector_f64());
     let view = Mat4::look_to_rh(eye, fwd, up);
     let near = rng.log_range(0.01, 1.0);
     let far = near * rng.log_range(10.0, 1e4);
@@ -116,9 +117,10 @@ fn aabb_classification_is_sound() {
             for _ in 0..1000 {
                 let dist = view_distance(&mut rng, reach);
                 let spread = if rng.below(3) == 0 {
-                    rng.unit_vec3a()
+                    rng.unit_vector_f64()
                 } else {
-                    Vec3A::from(fwd.normalize_or_zero()) + rng.unit_vec3a() * rng.range(0.0, 0.8)
+                    Vec3A::from(fwd.normalize_or_zero())
+                        + rng.unit_vector_f64() * rng.range(0.0, 0.8)
                 };
                 let c = Vec3A::from(eye) + spread * dist;
                 let half =
@@ -180,8 +182,8 @@ fn sphere_classification_is_sound() {
             let fwd = m.inverse().project_point3(Vec3::new(0.0, 0.0, 0.5)) - eye;
             for _ in 0..1000 {
                 let dist = view_distance(&mut rng, reach);
-                let spread =
-                    Vec3A::from(fwd.normalize_or_zero()) + rng.unit_vec3a() * rng.range(0.0, 0.8);
+                let spread = Vec3A::from(fwd.normalize_or_zero())
+                    + rng.unit_vector_f64() * rng.range(0.0, 0.8);
                 let s = Sphere::new(
                     Vec3A::from(eye) + spread * dist,
                     rng.log_range(1e-3, 0.5) * dist,
@@ -197,7 +199,7 @@ fn sphere_classification_is_sound() {
                             "{kind:?}: {s:?} called Outside, but no plane separates it"
                         );
                         for _ in 0..8 {
-                            let x = c + d(rng.unit_vec3a()) * r * rng.f64();
+                            let x = c + d(rng.unit_vector_f64()) * r * rng.f64();
                             assert!(
                                 !planes.iter().all(|p| signed_dist(p, x) > tol(p, x, r)),
                                 "{kind:?}: {s:?} Outside, {x} inside"
@@ -230,7 +232,7 @@ fn random_affine(rng: &mut Rng) -> Affine3A {
             rng.signed_log(1e-2, 1e2),
             rng.signed_log(1e-2, 1e2),
         );
-        let q = Quat::from_axis_angle(Vec3::from(rng.unit_vec3a()), rng.range(0.0, 6.3));
+        let q = Quat::from_axis_angle(Vec3::from(rng.unit_vector_f64()), rng.range(0.0, 6.3));
         Affine3A::from_scale_rotation_translation(s, q, t)
     } else {
         let m = Mat3::from_cols(
@@ -318,7 +320,7 @@ fn sphere_transformed_contains_images() {
         let v = stretch_direction(&lin);
         let samples = [v, -v]
             .into_iter()
-            .chain((0..14).map(|_| d(rng.unit_vec3a())));
+            .chain((0..14).map(|_| d(rng.unit_vector_f64())));
         for u in samples {
             let y = apply(&m, c + u * r);
             let gap = (y - gc).length() - gr;

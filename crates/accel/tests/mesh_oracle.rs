@@ -1,54 +1,35 @@
 //! Mesh BVHs and two-level scenes against brute force over every triangle of every instance.
 
-mod scenes;
-
 use accel::mesh::{Instance, InstancedScene, MeshBvh, SceneUpdateError, SpatialSplits};
 use accel::{Aabb, Backfaces, BuildConfig, Ray, SplitStrategy, WatertightRay};
+use accel_testkit::shapes::{triangle_soup, uv_sphere};
+use accel_testkit::{Mesh, Rng};
 use glam::{Affine3A, Quat, Vec3, Vec3A};
-use scenes::Rng;
 use std::sync::Arc;
 
+/// A mesh in the form the mesh trees take: `Vec3` positions, three indices per triangle.
 struct TestMesh {
     vertices: Vec<Vec3>,
     indices: Vec<u32>,
 }
 
-/// A random triangle soup: small triangles scattered in a box, plus a few large ones.
-fn soup(rng: &mut Rng, n: usize) -> TestMesh {
-    let mut vertices = Vec::new();
-    for i in 0..n {
-        let c = rng.vec3(-5.0, 5.0);
-        let size = if i % 50 == 0 { 4.0 } else { 0.4 };
-        for _ in 0..3 {
-            vertices.push((c + rng.vec3(-size, size)).into());
+impl From<Mesh> for TestMesh {
+    fn from(m: Mesh) -> Self {
+        Self {
+            vertices: m.positions(),
+            indices: m.flat_indices(),
         }
-    }
-    TestMesh {
-        indices: (0..vertices.len() as u32).collect(),
-        vertices,
     }
 }
 
-/// A UV sphere with shared vertices.
+/// A random triangle soup: small triangles scattered in a box, plus a few large ones.
+fn soup(rng: &mut Rng, n: usize) -> TestMesh {
+    triangle_soup(rng, n).into()
+}
+
+/// A UV sphere of radius 2 with shared vertices.
 fn sphere(rings: u32, segments: u32) -> TestMesh {
-    let mut vertices = Vec::new();
-    for r in 0..=rings {
-        let phi = core::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..segments {
-            let theta = core::f32::consts::TAU * s as f32 / segments as f32;
-            vertices
-                .push(Vec3::new(phi.sin() * theta.cos(), phi.cos(), phi.sin() * theta.sin()) * 2.0);
-        }
-    }
-    let mut indices = Vec::new();
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b) = (r * segments + s, r * segments + (s + 1) % segments);
-            let (c, d) = (a + segments, b + segments);
-            indices.extend_from_slice(&[a, c, b, b, c, d]);
-        }
-    }
-    TestMesh { vertices, indices }
+    uv_sphere(rings, segments, 2.0).into()
 }
 
 fn brute_mesh(m: &TestMesh, ray: &Ray, backfaces: Backfaces) -> Vec<(f32, u32)> {
@@ -68,8 +49,8 @@ fn brute_mesh(m: &TestMesh, ray: &Ray, backfaces: Backfaces) -> Vec<(f32, u32)> 
 }
 
 fn random_ray(rng: &mut Rng, extent: f32) -> Ray {
-    let o = rng.vec3(-extent, extent);
-    let target = rng.vec3(-extent * 0.5, extent * 0.5);
+    let o = rng.vec3a(-extent, extent);
+    let target = rng.vec3a(-extent * 0.5, extent * 0.5);
     Ray::new(o, target - o)
 }
 
@@ -78,8 +59,8 @@ fn random_ray(rng: &mut Rng, extent: f32) -> Ray {
 fn slivers(rng: &mut Rng, n: usize) -> TestMesh {
     let mut mesh = soup(rng, n);
     for _ in 0..n / 20 {
-        let (a, b) = (rng.vec3(-6.0, 6.0), rng.vec3(-6.0, 6.0));
-        let c = a + rng.vec3(-0.3, 0.3);
+        let (a, b) = (rng.vec3a(-6.0, 6.0), rng.vec3a(-6.0, 6.0));
+        let c = a + rng.vec3a(-0.3, 0.3);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend([Vec3::from(a), b.into(), c.into()]);
         mesh.indices.extend([first, first + 1, first + 2]);
@@ -122,8 +103,8 @@ fn check_mesh_queries(mesh: &TestMesh, bvh: &MeshBvh, rng: &mut Rng, overlap: Ov
         }
     }
     for _ in 0..200 {
-        let c = rng.vec3(-8.0, 8.0);
-        let query = Aabb::new(c, c + rng.vec3(0.0, 4.0));
+        let c = rng.vec3a(-8.0, 8.0);
+        let query = Aabb::new(c, c + rng.vec3a(0.0, 4.0));
         let mut got = Vec::new();
         bvh.for_each_triangle_overlapping(&query, |t| got.push(t));
         let visited = got.len();
@@ -229,7 +210,7 @@ fn presplit_meshes_match_brute_force() {
 /// Moves every vertex a little, refits, and checks the queries of a tree over pieces.
 fn refit_and_check(mesh: &mut TestMesh, bvh: &mut MeshBvh, rng: &mut Rng, name: &str) {
     for v in &mut mesh.vertices {
-        *v += Vec3::from(rng.vec3(-0.2, 0.2));
+        *v += rng.vec3(-0.2, 0.2);
     }
     bvh.refit(&mesh.vertices).unwrap();
     check_mesh_queries(mesh, bvh, rng, Overlap::Touching, &format!("{name}, refit"));
@@ -309,7 +290,7 @@ fn refit_follows_moved_vertices() {
     let mut bvh = MeshBvh::new(&mesh.vertices, &mesh.indices).unwrap();
     for frame in 0..5 {
         for v in &mut mesh.vertices {
-            *v += Vec3::from(rng.vec3(-0.3, 0.3));
+            *v += rng.vec3(-0.3, 0.3);
         }
         bvh.refit(&mesh.vertices).unwrap();
         bvh.validate().unwrap();
@@ -353,7 +334,7 @@ fn random_transform(rng: &mut Rng) -> Affine3A {
     if rng.below(3) == 0 {
         scale.x = -scale.x; // mirrored instances
     }
-    Affine3A::from_scale_rotation_translation(scale, rot, rng.vec3(-40.0, 40.0).into())
+    Affine3A::from_scale_rotation_translation(scale, rot, rng.vec3(-40.0, 40.0))
 }
 
 /// Where each instance of a scene is: its mesh (an index into the test's meshes) and its
@@ -495,19 +476,19 @@ fn two_level_scene_follows_updates() {
     for round in 0..12 {
         let mut updates = Vec::new();
         for _ in 0..=rng.below(30) {
-            let i = rng.below(count);
-            let mi = rng.below(2) as usize;
+            let i = rng.below(count as usize);
+            let mi = rng.below(2);
             // Rounds 3, 7 and 11 also reject instances (and place rejected ones again);
             // the others only move them: small steps from where they are, or anywhere.
             let m = if round % 4 == 3 && rng.below(4) == 0 {
                 singular_transform()
-            } else if let (Some((_, at)), true) = (placed[i as usize], rng.below(2) == 0) {
-                Affine3A::from_translation(rng.vec3(-2.0, 2.0).into()) * at
+            } else if let (Some((_, at)), true) = (placed[i], rng.below(2) == 0) {
+                Affine3A::from_translation(rng.vec3(-2.0, 2.0)) * at
             } else {
                 random_transform(&mut rng)
             };
-            placed[i as usize] = (m != singular_transform()).then_some((mi, m));
-            updates.push((i, instance(mi, m)));
+            placed[i] = (m != singular_transform()).then_some((mi, m));
+            updates.push((i as u32, instance(mi, m)));
         }
         scene.update_instances(updates).unwrap();
         check_scene(&scene, &meshes, &bvhs, &placed, &mut rng, 150);

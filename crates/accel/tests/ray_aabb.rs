@@ -5,10 +5,11 @@
 mod support;
 
 use accel::{Aabb, Ray};
+use accel_testkit::Rng;
 use glam::{DVec3, Vec3A};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
-use support::{Rng, d, slab_f64};
+use support::{d, slab_f64};
 
 /// How far the reported entry may exceed the reference entry, relative: the f64 reference has
 /// its own rounding, a few units of 2^-53, so anything past that is a real lateness.
@@ -129,7 +130,7 @@ fn random_rays_never_falsely_miss() {
                     rng.range(-0.1, 1.1),
                     rng.range(-0.1, 1.1),
                 );
-        let o = b.center() + rng.unit_vec3a() * size * rng.log_range(0.01, 100.0);
+        let o = b.center() + rng.unit_vector_f64() * size * rng.log_range(0.01, 100.0);
         let dir = (target - o) * rng.log_range(1e-3, 1e3);
         let (t_min, t_max) = if rng.below(4) == 0 {
             let a = rng.range(-1.0, 2.0);
@@ -164,7 +165,7 @@ fn adversarial_origins_and_axis_parallel_rays() {
             coordinate(&mut rng, &b, 1),
             coordinate(&mut rng, &b, 2),
         );
-        let mut dir = rng.unit_vec3a();
+        let mut dir = rng.unit_vector_f64();
         // Zero out one or two axes: axis-parallel rays and rays in a face plane (when the origin
         // coordinate sits on that bound).
         for k in 0..3 {
@@ -243,7 +244,7 @@ fn no_ray_slips_between_adjacent_boxes() {
         right.min[axis] = split;
         let mut p = b.min + b.extent() * Vec3A::new(rng.f32(), rng.f32(), rng.f32());
         p[axis] = split;
-        let o = p + rng.unit_vec3a() * b.extent().max_element() * rng.log_range(0.1, 10.0);
+        let o = p + rng.unit_vector_f64() * b.extent().max_element() * rng.log_range(0.1, 10.0);
         let ray = Ray::new(o, p - o);
         if ray.is_degenerate() {
             continue;

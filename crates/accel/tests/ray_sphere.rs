@@ -4,8 +4,9 @@
 mod support;
 
 use accel::{Ray, Sphere};
+use accel_testkit::Rng;
 use glam::{DVec3, Vec3A};
-use support::{Rng, d, sphere_f64};
+use support::{d, sphere_f64};
 
 /// Width of the tangency band, relative to the radius, for a case whose centre sits `far`
 /// radii from the origin. The line's closest point is found at the magnitude of `origin -
@@ -68,7 +69,9 @@ fn check(ray: &Ray, s: &Sphere, stats: &mut Stats) {
 /// A direction from `o` through a point `k` radii off the centre, sideways to the line of sight.
 fn aim(rng: &mut Rng, o: DVec3, c: DVec3, r: f64, k: f64) -> DVec3 {
     let to_c = c - o;
-    let side = d(rng.unit_vec3a()).reject_from(to_c).normalize_or_zero();
+    let side = d(rng.unit_vector_f64())
+        .reject_from(to_c)
+        .normalize_or_zero();
     c + side * (r * k) - o
 }
 
@@ -80,7 +83,7 @@ fn random_rays_match_reference() {
         let s = Sphere::new(rng.vec3a(-1e3, 1e3), rng.log_range(1e-3, 1e3));
         let (c, r) = (d(s.center), f64::from(s.radius));
         // Origins from inside the sphere to ten thousand radii away.
-        let o = (c + d(rng.unit_vec3a()) * r * f64::from(rng.log_range(0.1, 1e4))).as_vec3a();
+        let o = (c + d(rng.unit_vector_f64()) * r * f64::from(rng.log_range(0.1, 1e4))).as_vec3a();
         let k = rng.range_f64(0.0, 2.0);
         let dir = aim(&mut rng, d(o), c, r, k) * f64::from(rng.log_range(1e-3, 1e3));
         let (t_min, t_max) = if rng.below(4) == 0 {
@@ -120,7 +123,7 @@ fn far_small_spheres() {
         // An origin near the world origin, on a 2^-7 grid so that `origin - centre` is exact at
         // 1e5 (where the f32 spacing is 2^-7): what is tested is the algorithm, not the input.
         let o = (d(rng.vec3a(-64.0, 64.0)) * 128.0).round() / 128.0;
-        let c = d((rng.unit_vec3a() * 1e5).round());
+        let c = d((rng.unit_vector_f64() * 1e5).round());
         let s = Sphere::new(c.as_vec3a(), 1e-2);
         let r = f64::from(s.radius);
         let k = if i % 2 == 0 {

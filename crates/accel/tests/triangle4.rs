@@ -3,11 +3,9 @@
 //! inputs (shared edges and vertices hit exactly, axis-aligned rays, degenerate and NaN
 //! triangles, edge functions that overflow, culling, clipped ranges).
 
-mod support;
-
 use accel::{Aabb, Backfaces, Ray, Triangle4, WatertightRay};
+use accel_testkit::Rng;
 use glam::Vec3A;
-use support::Rng;
 
 fn random_point(rng: &mut Rng, extent: f32) -> Vec3A {
     Vec3A::new(

@@ -9,7 +9,8 @@ use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
 use accel::dynamic::{DynamicBvh, StaticDynamicPair};
 use accel::query::views::{ViewClassification, ViewMasks, for_each_in_views};
 use accel::{Aabb, BuildConfig, Bvh, Containment, Frustum, SpatialQuery};
-use scenes::{Rng, random_box, random_frustum};
+use accel_testkit::Rng;
+use scenes::{random_box, random_frustum};
 use std::collections::HashMap;
 
 /// Classifies a box against each undecided view, as a caller of the walk does.

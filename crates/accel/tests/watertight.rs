@@ -8,8 +8,10 @@
 mod support;
 
 use accel::{Backfaces, Ray, Triangle, WatertightRay, intersect_triangle_f64};
+use accel_testkit::shapes::{cube, icosphere};
+use accel_testkit::{Mesh, Rng, bunny};
 use glam::{DVec3, Vec3A};
-use support::{Mesh, Rng, d};
+use support::d;
 
 /// Far offsets along a direction with no zero component, so every coordinate is rounded.
 const OFFSETS: [f32; 3] = [0.0, 1e3, 1e5];
@@ -66,7 +68,7 @@ fn direction(rng: &mut Rng) -> Vec3A {
         v[rng.below(3)] = if rng.bool() { 1.0 } else { -1.0 };
         v
     } else {
-        rng.unit_vec3a()
+        rng.unit_vector_f64()
     }
 }
 
@@ -141,7 +143,7 @@ fn leak_test(
 
 #[test]
 fn cube_is_watertight() {
-    let rays = leak_test("cube", &support::cube(), 40.0, 500, 200, 100, 1);
+    let rays = leak_test("cube", &cube(), 40.0, 500, 200, 100, 1);
     assert!(rays >= 600_000);
 }
 
@@ -150,9 +152,7 @@ fn cube_is_watertight() {
 #[test]
 fn cube_center_through_corners_and_edges() {
     for &o in &OFFSETS {
-        let mesh = support::cube()
-            .normalized(40.0)
-            .translated(offset_vector(o));
+        let mesh = cube().normalized(40.0).translated(offset_vector(o));
         let center = mesh.vertices.iter().fold(Vec3A::ZERO, |s, &v| s + v) / 8.0;
         let comps = [-1.0, -0.0, 0.0, 1.0f32];
         let mut rays = 0;
@@ -177,21 +177,13 @@ fn cube_center_through_corners_and_edges() {
 
 #[test]
 fn icosphere_is_watertight() {
-    let rays = leak_test(
-        "icosphere(3)",
-        &support::icosphere(3),
-        60.0,
-        500,
-        120,
-        40,
-        2,
-    );
+    let rays = leak_test("icosphere(3)", &icosphere(3), 60.0, 500, 120, 40, 2);
     assert!(rays >= 300_000);
 }
 
 #[test]
 fn bunny_is_watertight() {
-    let rays = leak_test("bunny", &support::bunny(), 50.0, 100, 300, 100, 3);
+    let rays = leak_test("bunny", &bunny(), 50.0, 100, 300, 100, 3);
     assert!(rays >= 150_000);
 }
 
@@ -200,8 +192,8 @@ fn bunny_is_watertight() {
 #[test]
 fn test_meshes_are_closed_and_outward() {
     for (name, mesh, inside) in [
-        ("cube", support::cube(), DVec3::ZERO),
-        ("icosphere", support::icosphere(3), DVec3::ZERO),
+        ("cube", cube(), DVec3::ZERO),
+        ("icosphere", icosphere(3), DVec3::ZERO),
     ] {
         mesh.check_closed()
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -212,8 +204,8 @@ fn test_meshes_are_closed_and_outward() {
         );
         assert!(mesh.winding_number(DVec3::splat(5.0)).abs() < 1e-9);
     }
-    assert_eq!(support::icosphere(3).indices.len(), 1280);
-    let bunny = support::bunny();
+    assert_eq!(icosphere(3).indices.len(), 1280);
+    let bunny = bunny();
     bunny.check_closed().unwrap();
     assert!(bunny.indices.len() > 1000);
 }
@@ -247,7 +239,7 @@ fn front_face_and_culling() {
         let n = d(Triangle::new(tri[0], tri[1], tri[2]).normal()).normalize();
         // Mostly along the normal, with a sideways component so all six dominant axes occur.
         let side = if i % 2 == 0 { 1.0 } else { -1.0 };
-        let away = (n * side + d(rng.unit_vec3a()) * 0.5).normalize();
+        let away = (n * side + d(rng.unit_vector_f64()) * 0.5).normalize();
         let dist = f64::from(rng.log_range(1e-1, 1e3));
         let origin = (p + away * dist).as_vec3a();
         let dir = (p - d(origin)).as_vec3a();
@@ -309,7 +301,7 @@ fn t_and_barycentrics_match_f64() {
         let (tri, p) = random_triangle(&mut rng);
         let n = d(Triangle::new(tri[0], tri[1], tri[2]).normal());
         let away = (n.normalize() * if rng.bool() { 1.0 } else { -1.0 }
-            + d(rng.unit_vec3a()) * 0.7)
+            + d(rng.unit_vector_f64()) * 0.7)
             .normalize();
         let origin = (p + away * f64::from(rng.log_range(1e-1, 1e3))).as_vec3a();
         let dir = (p - d(origin)).as_vec3a();

@@ -22,6 +22,12 @@ pub fn to_obvhs_tri(t: &Triangle) -> obvhs::triangle::Triangle {
 pub struct ObvhsBvh2<'a>(pub &'a obvhs::bvh2::Bvh2);
 
 impl BoundingTree for ObvhsBvh2<'_> {
+    type Volume = Aabb;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
     fn root(&self) -> Option<u32> {
         (!self.0.nodes.is_empty()).then_some(0)
     }
@@ -33,7 +39,7 @@ impl BoundingTree for ObvhsBvh2<'_> {
         let n = &self.0.nodes[node as usize];
         (n.prim_count == 0).then_some([n.first_index, n.first_index + 1])
     }
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
+    fn node_primitives(&self, node: u32) -> &[u32] {
         let n = &self.0.nodes[node as usize];
         if n.prim_count == 0 {
             return &[];
@@ -140,6 +146,12 @@ impl BvhCrateTree {
 }
 
 impl BoundingTree for BvhCrateTree {
+    type Volume = Aabb;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
     fn root(&self) -> Option<u32> {
         (!self.children.is_empty()).then_some(0)
     }
@@ -149,7 +161,7 @@ impl BoundingTree for BvhCrateTree {
     fn node_children(&self, node: u32) -> Option<[u32; 2]> {
         self.children[node as usize]
     }
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
+    fn node_primitives(&self, node: u32) -> &[u32] {
         if self.children[node as usize].is_some() {
             &[]
         } else {

@@ -25,7 +25,8 @@ const N: usize = 100_000;
 
 #[path = "../../../benches/common/dynamic_workload.rs"]
 mod dynamic_workload;
-use dynamic_workload::{Rng, built_tree as ours, scene};
+use accel_testkit::Rng;
+use dynamic_workload::{built_tree as ours, scene};
 
 fn parry(b: &Aabb) -> ParryAabb {
     ParryAabb::new(
@@ -173,11 +174,11 @@ fn main() {
 
     // Frames: the same random walk for both.
     let frames = 200;
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     let steps: Vec<Vec<(usize, Vec3A)>> = (0..frames)
         .map(|_| {
             (0..N / 10)
-                .map(|_| (rng.below(N), rng.v(-1.0, 1.0)))
+                .map(|_| (rng.below(N), rng.vec3a(-1.0, 1.0)))
                 .collect()
         })
         .collect();

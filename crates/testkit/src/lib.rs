@@ -1,0 +1,41 @@
+//! # accel_testkit
+//!
+//! The inputs that the tests, benchmarks and examples of `accel` and `bevy_accel` share,
+//! each written once:
+//!
+//! - [`Rng`]: a seeded generator (PCG32) with the draws the tests use: bits, floats in
+//!   `[0, 1)`, ranges, indices, points in a box and directions.
+//! - [`boxes`]: random box scenes: uniform, clustered, degenerate (adversarial) and the
+//!   benchmarks' mixed entity cloud.
+//! - [`Mesh`] and [`shapes`]: an indexed triangle mesh with the checks the watertightness
+//!   tests need (closedness, winding number, distance to the surface), and the meshes made
+//!   from nothing: cube, icosphere, UV sphere and random triangle soups.
+//! - [`bunny`]: the Stanford bunny, read from the repository's `assets/bunny.obj`, and the
+//!   small OBJ reader that reads it.
+//! - [`triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
+//!
+//! Everything is deterministic: the same seed gives the same scene on every machine, so a
+//! failing case is reproduced by its seed alone.
+//!
+//! Types from `accel` (`Aabb`, `Triangle`) are those of the `accel` library crate. A unit test
+//! inside `accel` is compiled with a second copy of that crate, whose types differ; it can use
+//! the items here that return plain numbers and glam types ([`Rng`], [`Mesh`], [`shapes`]).
+#![warn(missing_docs)]
+
+pub mod boxes;
+pub mod bunny;
+mod mesh;
+mod rng;
+pub mod shapes;
+pub mod triangle_scene;
+
+pub use boxes::{
+    BoxScene, ENTITY_EXTENT, box_scene, clustered_boxes, degenerate_boxes, entity_boxes,
+    random_box, uniform_boxes,
+};
+pub use bunny::{bunny, bunny_path, load_obj};
+pub use mesh::{Mesh, closest_point_on_triangle};
+pub use rng::Rng;
+pub use triangle_scene::{
+    InstancedTriangles, TRI_EXTENT, instanced_triangle_scene, triangle_scene,
+};
