@@ -28,7 +28,7 @@ pub mod query;
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
-pub use query::{BoundingTree, RayHit, SpatialQuery};
+pub use query::{BoundingTree, NodeVolume, RayHit, SpatialQuery};
 
 /// A seeded stream of floats in `[0, 1)` (xorshift64) for the unit tests: reproducible, and no
 /// dependency.

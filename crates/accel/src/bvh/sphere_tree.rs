@@ -1,11 +1,8 @@
 //! The BVH with spheres as node bounds: the textbook's other bounding volume.
 
 use super::Bvh;
-use crate::query::RayWalk;
-use crate::query::TraversalStack;
-use crate::query::views::{ViewClassification, ViewMasks};
-use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
-use core::ops::ControlFlow;
+use crate::query::BoundingTree;
+use crate::{Aabb, Sphere};
 use glam::Vec3A;
 
 /// A binary BVH whose nodes are bounded by spheres instead of boxes.
@@ -55,10 +52,10 @@ impl SphereBvh {
                 let l = node.first as usize;
                 Some(spheres[l].merge(&spheres[l + 1]))
             };
-            spheres[i] = match merged {
+            spheres[i] = grown_for_rounding(match merged {
                 Some(m) if m.is_valid() && m.radius < around_box.radius => m,
                 _ => around_box,
-            };
+            });
         }
         Self {
             spheres,
@@ -77,223 +74,55 @@ impl SphereBvh {
     pub fn memory_bytes(&self) -> usize {
         self.spheres.len() * (core::mem::size_of::<Sphere>() + 8) + self.primitive_indices.len() * 4
     }
+}
 
-    fn leaf(&self, node: usize) -> Option<&[u32]> {
-        let c = self.count[node] as usize;
-        (c > 0).then(|| {
-            &self.primitive_indices[self.first[node] as usize..self.first[node] as usize + c]
-        })
+/// The sphere with its radius grown by a few ulps of its size and place.
+///
+/// Why: a merged sphere's centre is rounded, and so is a box's circumscribed radius; without
+/// the slack a point at the edge of a child (a zero-size box, a corner) can test outside its
+/// ancestors by an ulp, and a walk pruned on them misses it. The conformance suite found such
+/// a point box that a containment query lost.
+fn grown_for_rounding(sphere: Sphere) -> Sphere {
+    if !sphere.is_valid() {
+        return sphere;
+    }
+    let scale = sphere.center.abs().max_element() + sphere.radius;
+    Sphere::new(sphere.center, sphere.radius + 8.0 * f32::EPSILON * scale)
+}
+
+impl BoundingTree for SphereBvh {
+    type Volume = Sphere;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
+    #[inline]
+    fn root(&self) -> Option<u32> {
+        (!self.spheres.is_empty()).then_some(0)
     }
 
-    /// Depth-first walk: `enter(sphere)` says whether to descend.
-    fn walk<P, F>(&self, mut enter: P, mut visit: F)
-    where
-        P: FnMut(&Sphere) -> bool,
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        if self.spheres.is_empty() {
-            return;
-        }
-        let mut stack: TraversalStack<u32> = TraversalStack::new();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            if !enter(&self.spheres[n as usize]) {
-                continue;
-            }
-            match self.leaf(n as usize) {
-                Some(prims) => {
-                    for &p in prims {
-                        if visit(p).is_break() {
-                            return;
-                        }
-                    }
-                }
-                None => {
-                    stack.push(self.first[n as usize] + 1);
-                    stack.push(self.first[n as usize]);
-                }
+    #[inline]
+    fn node_bounds(&self, node: u32) -> Sphere {
+        self.spheres[node as usize]
+    }
+
+    #[inline]
+    fn node_children(&self, node: u32) -> Option<[u32; 2]> {
+        let first = self.first[node as usize];
+        (self.count[node as usize] == 0).then_some([first, first + 1])
+    }
+
+    #[inline]
+    fn node_primitives(&self, node: u32) -> &[u32] {
+        match self.count[node as usize] as usize {
+            0 => &[],
+            count => {
+                let first = self.first[node as usize] as usize;
+                &self.primitive_indices[first..first + count]
             }
         }
     }
 }
 
-impl RayWalk for SphereBvh {
-    /// Nearest-first ray walk with pruning by the ray's (shrinking) range.
-    fn walk_ray<F>(&self, ray: &mut Ray, mut visit: F)
-    where
-        F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
-    {
-        let Some(t0) = self.spheres.first().and_then(|s| ray.intersect_sphere(s)) else {
-            return;
-        };
-        let mut stack: TraversalStack<(u32, f32)> = TraversalStack::new();
-        stack.push((0, t0));
-        while let Some((n, t)) = stack.pop() {
-            if t > ray.t_max {
-                continue;
-            }
-            if let Some(prims) = self.leaf(n as usize) {
-                for &p in prims {
-                    if visit(p, ray).is_break() {
-                        return;
-                    }
-                }
-                continue;
-            }
-            let l = self.first[n as usize];
-            let tl = ray.intersect_sphere(&self.spheres[l as usize]);
-            let tr = ray.intersect_sphere(&self.spheres[l as usize + 1]);
-            match (tl, tr) {
-                (Some(a), Some(b)) if a <= b => {
-                    stack.push((l + 1, b));
-                    stack.push((l, a));
-                }
-                (Some(a), Some(b)) => {
-                    stack.push((l, a));
-                    stack.push((l + 1, b));
-                }
-                (Some(a), None) => stack.push((l, a)),
-                (None, Some(b)) => stack.push((l + 1, b)),
-                (None, None) => {}
-            }
-        }
-    }
-}
-
-impl SpatialQuery for SphereBvh {
-    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        self.walk(|s| s.intersects_aabb(aabb), visit);
-    }
-
-    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        self.walk(|s| s.intersects_sphere(sphere), visit);
-    }
-
-    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        self.walk(|s| s.contains_point(point), visit);
-    }
-
-    fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
-    where
-        F: FnMut(u32, Containment),
-    {
-        if self.spheres.is_empty() {
-            return;
-        }
-        let mut stack: TraversalStack<(u32, bool)> = TraversalStack::new();
-        stack.push((0, false));
-        while let Some((n, accepted)) = stack.pop() {
-            let c = if accepted {
-                Containment::Inside
-            } else {
-                frustum.classify_sphere(&self.spheres[n as usize])
-            };
-            if c == Containment::Outside {
-                continue;
-            }
-            match self.leaf(n as usize) {
-                Some(prims) => prims.iter().for_each(|&p| visit(p, c)),
-                None => {
-                    let inside = c == Containment::Inside;
-                    stack.push((self.first[n as usize] + 1, inside));
-                    stack.push((self.first[n as usize], inside));
-                }
-            }
-        }
-    }
-
-    /// A node's bounds here are the box around its sphere.
-    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
-    where
-        C: FnMut(&Aabb, u32) -> ViewClassification,
-        F: FnMut(u32, ViewMasks),
-    {
-        if self.spheres.is_empty() || views == 0 {
-            return;
-        }
-        let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-        stack.push((0, ViewMasks::undecided(views)));
-        while let Some((n, above)) = stack.pop() {
-            let c = if above.crossing == 0 {
-                // Every view decided an ancestor: nothing left to ask.
-                ViewClassification::default()
-            } else {
-                let sphere = &self.spheres[n as usize];
-                let half = Vec3A::splat(sphere.radius);
-                classify(
-                    &Aabb::from_center_half_extents(sphere.center, half),
-                    above.crossing,
-                )
-            };
-            let Some(masks) = above.below(c) else {
-                continue;
-            };
-            match self.leaf(n as usize) {
-                Some(prims) => prims.iter().for_each(|&p| visit(p, masks)),
-                None => {
-                    stack.push((self.first[n as usize] + 1, masks));
-                    stack.push((self.first[n as usize], masks));
-                }
-            }
-        }
-    }
-
-    fn nearest_k<F>(&self, point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
-    where
-        F: FnMut(u32) -> f32,
-    {
-        // Small k and simple bounds: a depth-first walk pruned by the k-th best distance.
-        let mut best: Vec<(u32, f32)> = Vec::with_capacity(k + 1);
-        if k == 0 {
-            return best;
-        }
-        let bound = |s: &Sphere| {
-            let d = (s.center.distance(point) - s.radius).max(0.0);
-            d * d
-        };
-        let mut worst = f32::INFINITY;
-        let mut stack: TraversalStack<u32> = TraversalStack::new();
-        if !self.spheres.is_empty() {
-            stack.push(0);
-        }
-        while let Some(n) = stack.pop() {
-            if best.len() == k && bound(&self.spheres[n as usize]) > worst {
-                continue;
-            }
-            match self.leaf(n as usize) {
-                Some(prims) => {
-                    for &p in prims {
-                        let d = distance_squared(p);
-                        if d.is_nan() {
-                            continue;
-                        }
-                        let key = |e: &(u32, f32)| (e.1, e.0);
-                        let pos =
-                            best.partition_point(|e| key(e).0 < d || (key(e).0 == d && e.0 < p));
-                        if pos < k {
-                            best.insert(pos, (p, d));
-                            best.truncate(k);
-                            if best.len() == k {
-                                worst = best[k - 1].1;
-                            }
-                        }
-                    }
-                }
-                None => {
-                    stack.push(self.first[n as usize] + 1);
-                    stack.push(self.first[n as usize]);
-                }
-            }
-        }
-        best
-    }
-}
+crate::impl_spatial_query_for_tree!(SphereBvh);

@@ -1,6 +1,7 @@
 //! What a built tree looks like: SAH cost, depth, leaf sizes, memory.
 
 use super::config::SahCosts;
+use crate::Aabb;
 use crate::query::BoundingTree;
 
 /// Shape and cost statistics of a binary tree.
@@ -23,7 +24,10 @@ pub struct TreeStats {
 }
 
 /// Walks the tree once and gathers [`TreeStats`].
-pub fn tree_stats<T: BoundingTree + ?Sized>(tree: &T, costs: &SahCosts) -> TreeStats {
+pub fn tree_stats<T>(tree: &T, costs: &SahCosts) -> TreeStats
+where
+    T: BoundingTree<Volume = Aabb> + ?Sized,
+{
     let mut s = TreeStats::default();
     let Some(root) = tree.root() else { return s };
     let root_area = tree.node_bounds(root).half_area();
@@ -42,14 +46,20 @@ pub fn tree_stats<T: BoundingTree + ?Sized>(tree: &T, costs: &SahCosts) -> TreeS
         let w = weight(tree.node_bounds(node).half_area()) as f64;
         s.max_depth = s.max_depth.max(depth);
         match tree.node_children(node) {
-            Some([a, b]) => {
+            Some(children) => {
                 s.interior_nodes += 1;
                 cost += w * costs.traversal as f64;
-                stack.push((a, depth + 1));
-                stack.push((b, depth + 1));
+                if T::INTERIOR_PRIMITIVES {
+                    let n = tree.node_primitives(node).len();
+                    s.primitives += n;
+                    cost += w * n as f64 * costs.intersection as f64;
+                }
+                for c in children {
+                    stack.push((c, depth + 1));
+                }
             }
             None => {
-                let n = tree.leaf_primitives(node).len();
+                let n = tree.node_primitives(node).len();
                 s.leaves += 1;
                 s.primitives += n;
                 s.max_leaf_size = s.max_leaf_size.max(n);

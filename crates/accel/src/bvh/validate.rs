@@ -36,6 +36,9 @@ pub enum ValidationError {
     InvalidBounds(u32),
     /// An empty leaf.
     EmptyLeaf(u32),
+    /// An interior node holds primitives in a tree whose walks read them at leaves only
+    /// ([`BoundingTree::INTERIOR_PRIMITIVES`] is false): queries would never see them.
+    PrimitivesAtInteriorNode(u32),
     /// A wide node's inlined primitive id (see
     /// [`WideBvh::inline_single_leaves`](super::wide::WideBvh::inline_single_leaves)) is not
     /// the id at its slot's position in the primitive array.
@@ -65,7 +68,7 @@ pub fn validate_tree<T, B>(
     bounds: B,
 ) -> Result<(), ValidationError>
 where
-    T: BoundingTree + ?Sized,
+    T: BoundingTree<Volume = Aabb> + ?Sized,
     B: Fn(u32) -> Option<Aabb>,
 {
     let mut seen_prim = vec![false; primitive_count];
@@ -83,38 +86,36 @@ where
             if nb.min.is_nan() || nb.max.is_nan() {
                 return Err(ValidationError::InvalidBounds(node));
             }
-            match tree.node_children(node) {
-                Some(children) => {
-                    for c in children {
-                        if !nb.contains_aabb(&tree.node_bounds(c)) {
-                            return Err(ValidationError::ChildOutsideParent {
-                                parent: node,
-                                child: c,
-                            });
-                        }
-                        stack.push(c);
-                    }
+            let children = tree.node_children(node);
+            let prims = tree.node_primitives(node);
+            if children.is_none() && prims.is_empty() {
+                return Err(ValidationError::EmptyLeaf(node));
+            }
+            if children.is_some() && !prims.is_empty() && !T::INTERIOR_PRIMITIVES {
+                return Err(ValidationError::PrimitivesAtInteriorNode(node));
+            }
+            for c in children.into_iter().flatten() {
+                if !nb.contains_aabb(&tree.node_bounds(c)) {
+                    return Err(ValidationError::ChildOutsideParent {
+                        parent: node,
+                        child: c,
+                    });
                 }
-                None => {
-                    let prims = tree.leaf_primitives(node);
-                    if prims.is_empty() {
-                        return Err(ValidationError::EmptyLeaf(node));
-                    }
-                    for &p in prims {
-                        let b = bounds(p).ok_or(ValidationError::UnknownPrimitive(p))?;
-                        let seen = seen_prim
-                            .get_mut(p as usize)
-                            .ok_or(ValidationError::UnknownPrimitive(p))?;
-                        if std::mem::replace(seen, true) {
-                            return Err(ValidationError::DuplicatePrimitive(p));
-                        }
-                        if !nb.contains_aabb(&b) {
-                            return Err(ValidationError::PrimitiveOutsideLeaf {
-                                leaf: node,
-                                primitive: p,
-                            });
-                        }
-                    }
+                stack.push(c);
+            }
+            for &p in prims {
+                let b = bounds(p).ok_or(ValidationError::UnknownPrimitive(p))?;
+                let seen = seen_prim
+                    .get_mut(p as usize)
+                    .ok_or(ValidationError::UnknownPrimitive(p))?;
+                if std::mem::replace(seen, true) {
+                    return Err(ValidationError::DuplicatePrimitive(p));
+                }
+                if !nb.contains_aabb(&b) {
+                    return Err(ValidationError::PrimitiveOutsideLeaf {
+                        leaf: node,
+                        primitive: p,
+                    });
                 }
             }
         }

@@ -1,7 +1,5 @@
 //! Handles to a dynamic tree's leaves, and the errors its edits report.
 
-use std::fmt;
-
 /// A stable reference to one leaf of a [`DynamicBvh`](super::DynamicBvh): valid from `insert`
 /// until `remove`.
 ///
@@ -34,26 +32,7 @@ impl LeafHandle {
     }
 }
 
-/// Why a dynamic-tree edit was refused. The tree is unchanged when one is returned.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DynamicBvhError {
-    /// The box has a NaN or infinite coordinate, or `min > max`: it would poison every
-    /// ancestor's box (NaN fails every comparison and hides whole subtrees from queries).
-    InvalidBounds,
-    /// The handle was removed (or never came from this tree).
-    StaleHandle,
-    /// The tree already holds 2^31 - 1 nodes.
-    CapacityExceeded,
-}
-
-impl fmt::Display for DynamicBvhError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::InvalidBounds => f.write_str("bounds are NaN, infinite or inverted"),
-            Self::StaleHandle => f.write_str("the handle does not name a live leaf"),
-            Self::CapacityExceeded => f.write_str("the dynamic BVH is full (2^31 - 1 nodes)"),
-        }
-    }
-}
-
-impl std::error::Error for DynamicBvhError {}
+/// Why a dynamic-tree edit was refused: the [`IndexError`](crate::query::IndexError) of
+/// every [`DynamicIndex`](crate::query::DynamicIndex). The tree is unchanged when one is
+/// returned; it holds at most 2^31 - 1 nodes.
+pub type DynamicBvhError = crate::query::IndexError;

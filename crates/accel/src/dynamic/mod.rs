@@ -22,7 +22,7 @@
 //!   applied.
 //!
 //! Queries go through the same traversal code as the static [`crate::Bvh`]
-//! ([`crate::query::binary`]): [`DynamicBvh`] implements [`BoundingTree`] and
+//! ([`crate::query::walks`]): [`DynamicBvh`] implements [`BoundingTree`] and
 //! [`SpatialQuery`](crate::SpatialQuery). A static tree and a dynamic one can be queried as one
 //! with [`StaticDynamicPair`].
 //!
@@ -57,12 +57,14 @@
 //! assert!(tree.remove(handles[3]).is_err());
 //! ```
 
+mod as_index;
 mod config;
 mod handle;
 mod insert;
 mod node;
 mod optimize;
 mod pair;
+mod pair_rays;
 mod quality;
 mod ray_snapshot;
 mod refit;
@@ -489,6 +491,12 @@ impl DynamicBvh {
 }
 
 impl BoundingTree for DynamicBvh {
+    type Volume = Aabb;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
     #[inline]
     fn root(&self) -> Option<u32> {
         debug_assert!(
@@ -515,7 +523,7 @@ impl BoundingTree for DynamicBvh {
     }
 
     #[inline]
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
+    fn node_primitives(&self, node: u32) -> &[u32] {
         let n = &self.arena.nodes[node as usize];
         if n.height == 0 {
             core::slice::from_ref(&n.id)
@@ -525,4 +533,4 @@ impl BoundingTree for DynamicBvh {
     }
 }
 
-crate::impl_spatial_query_for_binary_tree!(DynamicBvh);
+crate::impl_spatial_query_for_tree!(DynamicBvh);

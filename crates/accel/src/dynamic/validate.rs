@@ -62,6 +62,12 @@ struct DenseView<'a> {
 }
 
 impl BoundingTree for DenseView<'_> {
+    type Volume = Aabb;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
     fn root(&self) -> Option<u32> {
         (self.tree.root != NULL).then_some(self.tree.root)
     }
@@ -71,7 +77,7 @@ impl BoundingTree for DenseView<'_> {
     fn node_children(&self, node: u32) -> Option<[u32; 2]> {
         self.tree.node_children(node)
     }
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
+    fn node_primitives(&self, node: u32) -> &[u32] {
         if self.tree.arena.nodes[node as usize].is_leaf() {
             core::slice::from_ref(&self.ordinal[node as usize])
         } else {

@@ -104,9 +104,9 @@ pub struct MeshBvh {
 /// The wide layout the mesh tree uses.
 ///
 /// 16-wide rather than 8: the 16-wide node test runs 8 lanes at a time where the walk is
-/// compiled with AVX2 (`bvh/wide/ray.rs`), and on the 1M-triangle scene diffuse rays ran
-/// 3-7% and incoherent rays 7-9% faster against obvhs CWBVH (`ray_timing`), primary and shadow
-/// rays level, for a build about 8% slower and a refit within 5% (`mesh_timing`).
+/// compiled with AVX2 (`bvh/wide/ray.rs`), and on the 1M-triangle scene that made diffuse
+/// and incoherent rays faster, primary and shadow rays level, for a slightly slower build
+/// (docs/experiments.md, Rays on meshes).
 pub type MeshTree = Bvh16;
 
 impl MeshBvh {
@@ -125,12 +125,12 @@ impl MeshBvh {
     /// The pre-split budget [`MeshBvh::new`] uses: up to 30% more references than
     /// triangles, Karras and Aila's choice.
     ///
-    /// Measured on the 1M-triangle benchmark scene (bunnies among large slanted triangles,
-    /// `examples/ray_timing.rs`): against whole triangles, primary rays 1.7x, diffuse 1.5x,
-    /// incoherent 1.3x and shadow rays 1.15x as fast, for a build about 2.1x as long
-    /// (`BENCHMARKS.md`); budgets from 0.2 to 0.4 trace alike. A mesh of like triangles (a
-    /// tessellated sphere, the bunny) has none worth cutting and builds as before, less a
-    /// pass over its triangles (27 ms of 300 for a million).
+    /// On the 1M-triangle benchmark scene (bunnies among large slanted triangles,
+    /// `examples/ray_timing.rs`) every kind of ray traces faster than over whole triangles,
+    /// for a build about twice as long; budgets from 0.2 to 0.4 trace alike
+    /// (docs/experiments.md, Rays on meshes). A mesh of like triangles (a tessellated sphere,
+    /// the bunny) has none worth cutting and builds as before, less a pass over its
+    /// triangles.
     pub const DEFAULT_SPLIT_BUDGET: f32 = 0.3;
 
     /// The build [`MeshBvh::new`] uses for a mesh of `triangles` triangles: binned SAH up to
@@ -139,13 +139,13 @@ impl MeshBvh {
     ///
     /// A mesh is built once and traced for many frames, so it reinserts more than
     /// [`SplitStrategy::PLOC`] (1.2%, the preset balanced against build speed): on the 1M-triangle
-    /// benchmark scene 1.2% traced shadow and diffuse rays 2-3% slower than 1.5% did.
+    /// benchmark scene 1.2% traced shadow and diffuse rays slower than 1.5% did.
     ///
-    /// Measured: on a 1,088-triangle sphere the binned tree answers rays ~13% faster than the
-    /// PLOC one (and builds in well under a millisecond either way); on the 1M-triangle
-    /// benchmark scene PLOC builds 2.5x faster and its tree traces as fast or faster (primary
-    /// and incoherent rays 5-8% faster, shadow rays within 4%: `examples/ray_timing.rs`,
-    /// `examples/mesh_timing.rs`). Where between the two the crossover lies was not measured.
+    /// Why the two builds: on a 1,088-triangle sphere the binned tree answers rays faster than
+    /// the PLOC one (and both build in a blink); on the 1M-triangle benchmark scene PLOC
+    /// builds more than twice as fast and its tree traces as fast or faster
+    /// (`examples/ray_timing.rs`, `examples/mesh_timing.rs`; docs/experiments.md, Static BVH
+    /// builds). Where between the two the crossover lies was not measured.
     pub fn default_config(triangles: usize) -> BuildConfig {
         if triangles <= 1 << 16 {
             BuildConfig::default()
@@ -202,9 +202,9 @@ impl MeshBvh {
     /// strategy is not used.
     ///
     /// The highest-quality and slowest build, for static meshes traced many times: on the
-    /// 1M-triangle benchmark scene it builds in 4.3 s (the pre-split [`MeshBvh::new`] in
-    /// 0.8 s) and traces incoherent rays 1.33x and primary, shadow and diffuse rays 1.03-1.11x
-    /// as fast as that tree (`BENCHMARKS.md`). Queries and refits behave as after
+    /// 1M-triangle benchmark scene it builds several times slower than the pre-split
+    /// [`MeshBvh::new`] and traces every kind of ray faster than that tree, incoherent rays
+    /// most (BENCHMARKS.md, Rays on meshes). Queries and refits behave as after
     /// [`MeshBvh::with_splits`].
     ///
     /// ```
@@ -459,5 +459,31 @@ impl MeshBvh {
         self.tree.refit(|packet| boxes[packet as usize]);
         self.piece_boxes = Vec::new();
         Ok(())
+    }
+}
+
+impl crate::query::TriangleQuery for MeshBvh {
+    fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    fn bounds(&self) -> Aabb {
+        MeshBvh::bounds(self)
+    }
+
+    fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
+        MeshBvh::cast_ray(self, ray, backfaces)
+    }
+
+    fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
+        MeshBvh::cast_ray_any(self, ray, backfaces)
+    }
+
+    fn cast_ray_all(&self, ray: &Ray, backfaces: Backfaces, out: &mut Vec<MeshHit>) {
+        MeshBvh::cast_ray_all(self, ray, backfaces, out)
+    }
+
+    fn for_each_triangle_overlapping<F: FnMut(u32)>(&self, aabb: &Aabb, visit: F) {
+        MeshBvh::for_each_triangle_overlapping(self, aabb, visit)
     }
 }

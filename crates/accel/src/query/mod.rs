@@ -1,22 +1,44 @@
 //! One query interface for every spatial structure in the crate.
 //!
-//! [`SpatialQuery`] is what picking, culling and the preview call; the BVH, the dynamic BVH and
+//! [`SpatialQuery`] is what picking, culling and the preview call; the BVHs, the dynamic BVH and
 //! later the octree and grid all implement it. Trees only *find candidates*: each query calls
 //! back per primitive, and the caller runs the exact test (a triangle, an entity filter), so one
 //! tree serves boxes, meshes and entities alike.
 //!
-//! The traversals of binary trees live in [`binary`] and are shared by every
-//! [`BoundingTree`].
+//! - [`BoundingTree`]: the view of a hierarchy (a node's children and their volumes, the
+//!   primitives stored at a node) that every query is written once over, in [`walks`] and
+//!   [`views`], whatever the tree's branching factor and volume ([`NodeVolume`]).
+//! - [`RayWalk`]: how a structure visits what a ray reaches; the closest, any and all hit
+//!   queries are built on it ([`ray_walk`]).
+//! - [`DynamicIndex`]: an index over moving boxes (insert, update and remove by handle,
+//!   per-frame upkeep with a budget, stats), and [`AnyIndex`], the one chosen at run time.
+//! - [`TriangleQuery`]: exact ray hits and overlap on one mesh's triangles.
+//! - [`BruteForceIndex`] and [`BruteForceMesh`]: flat lists answering every query by testing
+//!   everything, the oracles of the conformance suite (`crates/accel/tests/conformance`),
+//!   which every structure runs.
 
-pub mod binary;
+mod brute_force;
+mod brute_force_mesh;
+mod dynamic_index;
+mod index_choice;
 pub mod ray_walk;
 mod stack;
 mod tree;
+mod triangle_query;
 pub mod views;
+mod volume;
+pub mod walks;
 
+pub use brute_force::{BruteForceIndex, FlatHandle};
+pub use brute_force_mesh::BruteForceMesh;
+pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
 pub use ray_walk::RayWalk;
 pub(crate) use stack::TraversalStack;
-pub use tree::BoundingTree;
+pub use tree::{BoundingTree, Subtree};
+pub use triangle_query::TriangleQuery;
+pub use volume::NodeVolume;
+pub use walks::sort_hits;
 
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::ops::ControlFlow;
@@ -35,6 +57,11 @@ pub struct RayHit {
 ///
 /// Primitive ids are the caller's: the index of the primitive in the build input, or the id it
 /// was inserted with. Callbacks receive candidates whose bounds pass the query; they decide.
+///
+/// **Duplicates.** Each query reports a primitive at most once, whatever the structure: one
+/// that stores a primitive in several cells (a grid) removes the repeats itself, so callers
+/// never need to. The one exception is a caller who inserted the same id twice (two entries
+/// with one id are two primitives to the structure).
 ///
 /// ```
 /// use accel::{Aabb, Bvh, BuildConfig, Ray, SpatialQuery};
@@ -106,7 +133,7 @@ pub trait SpatialQuery: RayWalk {
     /// `visit(primitive, masks)` once for each primitive that some view reaches, with the views
     /// that hold its bounds wholly and those that cross them. `classify(bounds, undecided)`
     /// says how a node's bounds stand with the views still undecided above it; it must be
-    /// monotone (see [`views::for_each_in_views`], the walk of every binary tree).
+    /// monotone (see [`views::for_each_in_views`], the walk of every [`BoundingTree`]).
     fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
     where
         C: FnMut(&Aabb, u32) -> views::ViewClassification,

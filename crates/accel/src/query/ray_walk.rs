@@ -1,7 +1,7 @@
 //! Closest, any and all hits, written once over any structure that can walk a ray.
 
 use super::RayHit;
-use super::binary::sort_hits;
+use super::walks::sort_hits;
 use crate::Ray;
 use core::ops::ControlFlow;
 

@@ -1,7 +1,7 @@
 //! One walk for several views at once: which views hold each primitive wholly, which only
-//! cross it, and which never reach it. [`for_each_in_views`] is the walk of every binary
-//! tree behind [`SpatialQuery::for_each_in_views`](super::SpatialQuery::for_each_in_views);
-//! wide and sphere trees walk their own nodes by the same rules.
+//! cross it, and which never reach it. [`for_each_in_views`] is the walk of every
+//! [`BoundingTree`] behind
+//! [`SpatialQuery::for_each_in_views`](super::SpatialQuery::for_each_in_views).
 //!
 //! A point light's shadow has six cube faces, a directional light four cascades per camera.
 //! Walking the tree once per view repeats the descent through the top of the tree, where
@@ -10,10 +10,9 @@
 //! applied to whole views), and a subtree leaves the walk as soon as every view has decided
 //! it.
 
-use super::BoundingTree;
-use super::binary::{SubtreeExt, for_each_leaf_primitive};
+use super::walks::visit_subtree;
+use super::{BoundingTree, NodeVolume};
 use crate::Aabb;
-use core::ops::ControlFlow;
 
 /// Which views, one bit each, a primitive's tree box lies wholly inside (`inside`: no test
 /// needed), and which only cross its leaf (`crossing`: the caller tests it). A view in
@@ -110,8 +109,9 @@ where
     // A queue, not a stack: the order primitives come out in is not promised, and in a
     // queue the node read `PREFETCH_AHEAD` steps from now is already known, so its fetch
     // starts that many steps early. A depth-first walk reads each node right after pushing
-    // it, and in a tree larger than the cache it waited one memory latency per node (13k
-    // node visits took about 1 ms at 1M entities, 5% in view). Each entry carries its
+    // it, and in a tree larger than the cache it waited one memory latency per node (with
+    // the queue, and subtree spans read from a table, a walk at 1M entities, 5% in view, took
+    // about half as long: docs/experiments.md, Culling). Each entry carries its
     // parent's masks: the views holding it whole, and those to ask.
     let mut queue: Vec<(u32, ViewMasks)> = Vec::with_capacity(256);
     queue.push((root, ViewMasks::undecided(views)));
@@ -127,42 +127,34 @@ where
             queue.drain(..next);
             next = 0;
         }
-        let c = classify(&tree.node_bounds(node), above.crossing);
+        let c = classify(&tree.node_bounds(node).bounding_box(), above.crossing);
         let Some(masks) = above.below(c) else {
             continue;
         };
         if masks.crossing == 0 {
             // Every view has decided the subtree: emit it whole without another test.
-            if let Some(prims) = tree.subtree_primitives(node) {
-                prims.iter().for_each(|&p| visit(p, masks));
-                continue;
-            }
-            for_each_leaf_primitive(
-                &tree.subtree(node),
-                |_| true,
-                |p| {
-                    visit(p, masks);
-                    ControlFlow::Continue(())
-                },
-            );
+            visit_subtree(tree, node, |p| visit(p, masks));
             continue;
         }
-        match tree.node_children(node) {
-            Some([a, b]) => {
-                // Near the front of the queue, the children are read before the look-ahead
-                // above reaches them.
-                if queue.len() - next < PREFETCH_AHEAD {
-                    tree.prefetch_node(a);
-                    tree.prefetch_node(b);
-                }
-                queue.push((a, masks));
-                queue.push((b, masks));
+        let Some(children) = tree.node_children(node) else {
+            for &p in tree.node_primitives(node) {
+                visit(p, masks);
             }
-            None => {
-                for &p in tree.leaf_primitives(node) {
-                    visit(p, masks);
-                }
+            continue;
+        };
+        if T::INTERIOR_PRIMITIVES {
+            for &p in tree.node_primitives(node) {
+                visit(p, masks);
             }
+        }
+        // Near the front of the queue, the children are read before the look-ahead above
+        // reaches them.
+        let prefetch = queue.len() - next < PREFETCH_AHEAD;
+        for child in children {
+            if prefetch {
+                tree.prefetch_node(child);
+            }
+            queue.push((child, masks));
         }
     }
 }

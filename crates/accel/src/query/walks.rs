@@ -1,9 +1,11 @@
-//! Traversals of binary trees, shared by the static and the dynamic BVH.
+//! The traversals every [`BoundingTree`] shares, whatever its branching factor: the static,
+//! dynamic, wide and sphere BVHs, the static/dynamic pair and the octree answer their
+//! queries with this code.
 //!
-//! Each is a stack traversal that visits the nearer child first (for rays) and prunes by the
-//! best distance found so far. They work on any [`BoundingTree`].
+//! Each is a stack traversal that prunes by the query's test against a node's volume; the ray
+//! walk enters the nearest child first and prunes by the best distance found so far.
 
-use super::{BoundingTree, RayHit, TraversalStack};
+use super::{BoundingTree, NodeVolume, RayHit, Subtree, TraversalStack};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::cmp::Ordering;
 use core::ops::ControlFlow;
@@ -15,16 +17,34 @@ pub fn sort_hits(hits: &mut [RayHit]) {
     hits.sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.primitive.cmp(&b.primitive)));
 }
 
-/// Walks the leaves a ray reaches, nearer child first, skipping subtrees that start beyond
+/// Calls `visit` for each primitive stored at `node` (a leaf's, or an interior node's where
+/// the tree keeps primitives there), stopping when it breaks.
+#[inline(always)]
+fn visit_node_primitives<T, F>(tree: &T, node: u32, visit: &mut F) -> ControlFlow<()>
+where
+    T: BoundingTree + ?Sized,
+    F: FnMut(u32) -> ControlFlow<()>,
+{
+    for &prim in tree.node_primitives(node) {
+        visit(prim)?;
+    }
+    ControlFlow::Continue(())
+}
+
+/// Walks the nodes a ray reaches, nearest child first, skipping subtrees that start beyond
 /// `ray.t_max`, which the visitor may shrink as it finds hits: the [`RayWalk`](super::RayWalk)
-/// of every binary tree.
+/// of every tree without a walk of its own.
+///
+/// Only the nearest child is ordered: it is entered next, and the others wait on the stack in
+/// the order they came. For a binary tree that is the full front-to-back order; for wider
+/// nodes, a sort of every entry costs more than the few pops it saves.
 pub fn visit_ray_front_to_back<T, F>(tree: &T, ray: &mut Ray, mut visit: F)
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
     let Some(root) = tree.root() else { return };
-    let Some(root_t) = ray.intersect_aabb(&tree.node_bounds(root)) else {
+    let Some(root_t) = tree.node_bounds(root).ray_entry(ray) else {
         return;
     };
     let mut stack: TraversalStack<(u32, f32)> = TraversalStack::new();
@@ -36,50 +56,56 @@ where
             continue;
         }
         loop {
-            match tree.node_children(node) {
-                Some([a, b]) => {
-                    let ta = ray.intersect_aabb(&tree.node_bounds(a));
-                    let tb = ray.intersect_aabb(&tree.node_bounds(b));
-                    // The children of each child the ray enters are read next (the nearer's
-                    // at once, the farther's when popped): ask for them now, so in a scattered
-                    // tree the misses overlap instead of queueing one level at a time.
-                    for (child, t) in [(a, ta), (b, tb)] {
-                        if t.is_some()
-                            && let Some([x, y]) = tree.node_children(child)
-                        {
-                            tree.prefetch_node(x);
-                            tree.prefetch_node(y);
-                        }
+            let Some(children) = tree.node_children(node) else {
+                for &prim in tree.node_primitives(node) {
+                    if visit(prim, ray).is_break() {
+                        return;
                     }
-                    node = match (ta, tb) {
-                        (Some(ta), Some(tb)) => {
-                            let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
-                            stack.push((far, t_far));
-                            near
-                        }
-                        (Some(_), None) => a,
-                        (None, Some(_)) => b,
-                        (None, None) => break,
-                    };
                 }
-                None => {
-                    for &prim in tree.leaf_primitives(node) {
-                        if visit(prim, ray).is_break() {
-                            return;
-                        }
+                break;
+            };
+            if T::INTERIOR_PRIMITIVES {
+                for &prim in tree.node_primitives(node) {
+                    if visit(prim, ray).is_break() {
+                        return;
                     }
-                    break;
                 }
+            }
+            let mut nearest: Option<(u32, f32)> = None;
+            for child in children {
+                let Some(t) = tree.node_bounds(child).ray_entry(ray) else {
+                    continue;
+                };
+                // The children of each child the ray enters are read next (the nearest's at
+                // once, the others' when popped): ask for them now, so in a scattered tree
+                // the misses overlap instead of queueing one level at a time.
+                tree.prefetch_children(child);
+                nearest = match nearest {
+                    Some((near, t_near)) if t < t_near => {
+                        stack.push((near, t_near));
+                        Some((child, t))
+                    }
+                    Some(near) => {
+                        stack.push((child, t));
+                        Some(near)
+                    }
+                    None => Some((child, t)),
+                };
+            }
+            match nearest {
+                Some((near, _)) => node = near,
+                None => break,
             }
         }
     }
 }
 
-/// Visits the primitives of every leaf whose bounds pass `node_test`, depth first.
-pub fn for_each_leaf_primitive<T, P, F>(tree: &T, mut node_test: P, mut visit: F)
+/// Visits the primitives of every node whose bounds pass `node_test`, depth first, in the
+/// order of each node's children.
+pub fn visit_primitives_where<T, P, F>(tree: &T, mut node_test: P, mut visit: F)
 where
     T: BoundingTree + ?Sized,
-    P: FnMut(&Aabb) -> bool,
+    P: FnMut(&T::Volume) -> bool,
     F: FnMut(u32) -> ControlFlow<()>,
 {
     let Some(root) = tree.root() else { return };
@@ -90,22 +116,46 @@ where
             continue;
         }
         match tree.node_children(node) {
-            Some([a, b]) => {
-                // Both are read soon: overlap their misses in a scattered tree.
-                tree.prefetch_node(b);
-                tree.prefetch_node(a);
-                stack.push(b);
-                stack.push(a);
+            Some(children) => {
+                if T::INTERIOR_PRIMITIVES
+                    && visit_node_primitives(tree, node, &mut visit).is_break()
+                {
+                    return;
+                }
+                // Each is read soon: overlap their misses in a scattered tree.
+                for child in children.into_iter().rev() {
+                    tree.prefetch_node(child);
+                    stack.push(child);
+                }
             }
             None => {
-                for &prim in tree.leaf_primitives(node) {
-                    if visit(prim).is_break() {
-                        return;
-                    }
+                if visit_node_primitives(tree, node, &mut visit).is_break() {
+                    return;
                 }
             }
         }
     }
+}
+
+/// Every primitive below `node`, without a test: a subtree a query holds whole. One slice
+/// where the tree stores the subtree's primitives contiguously, else a walk.
+pub fn visit_subtree<T, F>(tree: &T, node: u32, mut visit: F)
+where
+    T: BoundingTree + ?Sized,
+    F: FnMut(u32),
+{
+    if let Some(prims) = tree.subtree_primitives(node) {
+        prims.iter().for_each(|&p| visit(p));
+        return;
+    }
+    visit_primitives_where(
+        &Subtree::new(tree, node),
+        |_| true,
+        |p| {
+            visit(p);
+            ControlFlow::Continue(())
+        },
+    );
 }
 
 /// Overlap with a box; see [`super::SpatialQuery::for_each_overlapping_aabb`].
@@ -114,7 +164,7 @@ where
     T: BoundingTree + ?Sized,
     F: FnMut(u32) -> ControlFlow<()>,
 {
-    for_each_leaf_primitive(tree, |b| b.intersects_aabb(aabb), visit);
+    visit_primitives_where(tree, |b| b.overlaps_aabb(aabb), visit);
 }
 
 /// Overlap with a sphere; see [`super::SpatialQuery::for_each_overlapping_sphere`].
@@ -123,7 +173,7 @@ where
     T: BoundingTree + ?Sized,
     F: FnMut(u32) -> ControlFlow<()>,
 {
-    for_each_leaf_primitive(tree, |b| sphere.intersects_aabb(b), visit);
+    visit_primitives_where(tree, |b| b.overlaps_sphere(sphere), visit);
 }
 
 /// Point containment; see [`super::SpatialQuery::for_each_containing_point`].
@@ -132,7 +182,7 @@ where
     T: BoundingTree + ?Sized,
     F: FnMut(u32) -> ControlFlow<()>,
 {
-    for_each_leaf_primitive(tree, |b| b.contains_point(point), visit);
+    visit_primitives_where(tree, |b| b.contains_point(point), visit);
 }
 
 /// Frustum query; see [`super::SpatialQuery::for_each_in_frustum`].
@@ -145,32 +195,24 @@ where
     let mut stack: TraversalStack<u32> = TraversalStack::new();
     stack.push(root);
     while let Some(node) = stack.pop() {
-        match frustum.classify_aabb(&tree.node_bounds(node)) {
+        match tree.node_bounds(node).classify_frustum(frustum) {
             Containment::Outside => {}
-            Containment::Inside => {
-                // The whole subtree is in view: emit it without testing another plane.
-                if let Some(prims) = tree.subtree_primitives(node) {
-                    prims.iter().for_each(|&p| visit(p, Containment::Inside));
-                    continue;
-                }
-                for_each_leaf_primitive(
-                    &tree.subtree(node),
-                    |_| true,
-                    |p| {
-                        visit(p, Containment::Inside);
-                        ControlFlow::Continue(())
-                    },
-                );
-            }
+            // The whole subtree is in view: emit it without testing another plane.
+            Containment::Inside => visit_subtree(tree, node, |p| visit(p, Containment::Inside)),
             Containment::Intersecting => match tree.node_children(node) {
-                Some([a, b]) => {
-                    tree.prefetch_node(b);
-                    tree.prefetch_node(a);
-                    stack.push(b);
-                    stack.push(a);
+                Some(children) => {
+                    if T::INTERIOR_PRIMITIVES {
+                        for &p in tree.node_primitives(node) {
+                            visit(p, Containment::Intersecting);
+                        }
+                    }
+                    for child in children.into_iter().rev() {
+                        tree.prefetch_node(child);
+                        stack.push(child);
+                    }
                 }
                 None => {
-                    for &p in tree.leaf_primitives(node) {
+                    for &p in tree.node_primitives(node) {
                         visit(p, Containment::Intersecting);
                     }
                 }
@@ -192,7 +234,20 @@ where
     if k == 0 {
         return Vec::new();
     }
-    // Best-first: a min-heap of nodes by box distance (Reverse order through `Candidate`).
+    let mut consider = |best: &mut BinaryHeap<Candidate>, p: u32| {
+        let d2 = distance_squared(p);
+        if d2.is_nan() {
+            return;
+        }
+        let cand = Candidate { d2, id: p };
+        if best.len() < k {
+            best.push(cand);
+        } else if best.peek().is_some_and(|w| cand < *w) {
+            best.pop();
+            best.push(cand);
+        }
+    };
+    // Best-first: a min-heap of nodes by volume distance (Reverse order through `Candidate`).
     let mut frontier: BinaryHeap<core::cmp::Reverse<Candidate>> = BinaryHeap::new();
     frontier.push(core::cmp::Reverse(Candidate {
         d2: tree.node_bounds(root).distance_squared_to_point(point),
@@ -202,28 +257,15 @@ where
         if best.len() == k && best.peek().is_some_and(|w| d2 > w.d2) {
             break;
         }
-        match tree.node_children(node) {
-            Some(children) => {
-                for c in children {
-                    let d2 = tree.node_bounds(c).distance_squared_to_point(point);
-                    frontier.push(core::cmp::Reverse(Candidate { d2, id: c }));
-                }
-            }
-            None => {
-                for &p in tree.leaf_primitives(node) {
-                    let d2 = distance_squared(p);
-                    if d2.is_nan() {
-                        continue;
-                    }
-                    let cand = Candidate { d2, id: p };
-                    if best.len() < k {
-                        best.push(cand);
-                    } else if best.peek().is_some_and(|w| cand < *w) {
-                        best.pop();
-                        best.push(cand);
-                    }
-                }
-            }
+        let children = tree.node_children(node);
+        if children.is_none() || T::INTERIOR_PRIMITIVES {
+            tree.node_primitives(node)
+                .iter()
+                .for_each(|&p| consider(&mut best, p));
+        }
+        for c in children.into_iter().flatten() {
+            let d2 = tree.node_bounds(c).distance_squared_to_point(point);
+            frontier.push(core::cmp::Reverse(Candidate { d2, id: c }));
         }
     }
     let mut out: Vec<(u32, f32)> = best.into_iter().map(|c| (c.id, c.d2)).collect();
@@ -252,87 +294,53 @@ impl Ord for Candidate {
     }
 }
 
-/// A subtree of a [`BoundingTree`], itself a tree rooted at one of its nodes.
-pub struct Subtree<'a, T: ?Sized> {
-    tree: &'a T,
-    root: u32,
-}
-
-/// Rooting any tree at one of its nodes.
-pub trait SubtreeExt: BoundingTree {
-    /// The subtree below `node`.
-    fn subtree(&self, node: u32) -> Subtree<'_, Self> {
-        Subtree {
-            tree: self,
-            root: node,
-        }
-    }
-}
-
-impl<T: BoundingTree + ?Sized> SubtreeExt for T {}
-
-impl<T: BoundingTree + ?Sized> BoundingTree for Subtree<'_, T> {
-    fn root(&self) -> Option<u32> {
-        Some(self.root)
-    }
-    fn node_bounds(&self, node: u32) -> Aabb {
-        self.tree.node_bounds(node)
-    }
-    fn node_children(&self, node: u32) -> Option<[u32; 2]> {
-        self.tree.node_children(node)
-    }
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
-        self.tree.leaf_primitives(node)
-    }
-    fn subtree_primitives(&self, node: u32) -> Option<&[u32]> {
-        self.tree.subtree_primitives(node)
-    }
-    fn prefetch_node(&self, node: u32) {
-        self.tree.prefetch_node(node)
-    }
-}
-
-/// Implements [`super::RayWalk`] and [`super::SpatialQuery`] for a [`BoundingTree`] through the traversals of this
-/// module, so every binary tree answers queries with the same code. The `@queries` form
-/// leaves out `RayWalk`, for a tree that walks rays its own way.
+/// Implements [`super::RayWalk`] and [`super::SpatialQuery`] for a [`BoundingTree`] through
+/// the traversals of this module, so every tree answers queries with the same code. The
+/// `@queries` form leaves out `RayWalk`, for a tree that walks rays its own way.
 #[macro_export]
-macro_rules! impl_spatial_query_for_binary_tree {
+macro_rules! impl_spatial_query_for_tree {
     ($ty:ty) => {
-        impl $crate::query::RayWalk for $ty {
+        $crate::impl_spatial_query_for_tree!(impl[] $ty);
+    };
+    (impl[$($generics:tt)*] $ty:ty) => {
+        impl<$($generics)*> $crate::query::RayWalk for $ty {
             fn walk_ray<V>(&self, ray: &mut $crate::Ray, visit: V)
             where
                 V: FnMut(u32, &mut $crate::Ray) -> core::ops::ControlFlow<()>,
             {
-                $crate::query::binary::visit_ray_front_to_back(self, ray, visit)
+                $crate::query::walks::visit_ray_front_to_back(self, ray, visit)
             }
         }
-        $crate::impl_spatial_query_for_binary_tree!(@queries $ty);
+        $crate::impl_spatial_query_for_tree!(@queries impl[$($generics)*] $ty);
     };
     (@queries $ty:ty) => {
-        impl $crate::SpatialQuery for $ty {
+        $crate::impl_spatial_query_for_tree!(@queries impl[] $ty);
+    };
+    (@queries impl[$($generics:tt)*] $ty:ty) => {
+        impl<$($generics)*> $crate::SpatialQuery for $ty {
             fn for_each_overlapping_aabb<F>(&self, aabb: &$crate::Aabb, visit: F)
             where
                 F: FnMut(u32) -> core::ops::ControlFlow<()>,
             {
-                $crate::query::binary::for_each_overlapping_aabb(self, aabb, visit)
+                $crate::query::walks::for_each_overlapping_aabb(self, aabb, visit)
             }
             fn for_each_overlapping_sphere<F>(&self, sphere: &$crate::Sphere, visit: F)
             where
                 F: FnMut(u32) -> core::ops::ControlFlow<()>,
             {
-                $crate::query::binary::for_each_overlapping_sphere(self, sphere, visit)
+                $crate::query::walks::for_each_overlapping_sphere(self, sphere, visit)
             }
             fn for_each_containing_point<F>(&self, point: glam::Vec3A, visit: F)
             where
                 F: FnMut(u32) -> core::ops::ControlFlow<()>,
             {
-                $crate::query::binary::for_each_containing_point(self, point, visit)
+                $crate::query::walks::for_each_containing_point(self, point, visit)
             }
             fn for_each_in_frustum<F>(&self, frustum: &$crate::Frustum, visit: F)
             where
                 F: FnMut(u32, $crate::Containment),
             {
-                $crate::query::binary::for_each_in_frustum(self, frustum, visit)
+                $crate::query::walks::for_each_in_frustum(self, frustum, visit)
             }
             fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
             where
@@ -350,7 +358,7 @@ macro_rules! impl_spatial_query_for_binary_tree {
             where
                 F: FnMut(u32) -> f32,
             {
-                $crate::query::binary::nearest_k(self, point, k, distance_squared)
+                $crate::query::walks::nearest_k(self, point, k, distance_squared)
             }
         }
     };

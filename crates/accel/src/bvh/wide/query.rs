@@ -1,77 +1,110 @@
-//! [`SpatialQuery`] for wide trees: rays through the SIMD traversal, the rest per slot.
+//! [`SpatialQuery`](crate::SpatialQuery) for wide trees: rays through the SIMD traversal,
+//! the rest through the shared walks over a slot-by-slot [`BoundingTree`] view.
 
 use super::ray::visit_ray;
 use super::{WideBvh, WideLayout};
-use crate::query::RayWalk;
-use crate::query::TraversalStack;
-use crate::query::views::{ViewClassification, ViewMasks};
-use crate::{Aabb, Containment, Frustum, Ray, SpatialQuery, Sphere};
-use core::cmp::Reverse;
+use crate::query::{BoundingTree, RayWalk};
+use crate::{Aabb, Ray};
 use core::ops::ControlFlow;
-use glam::Vec3A;
-use std::collections::BinaryHeap;
+
+/// The node id of the root in the [`BoundingTree`] view; every other id is a slot,
+/// `node * N + slot`.
+const ROOT: u32 = u32::MAX;
+
+/// The used slots of one node, as the [`BoundingTree`] view's ids (`node * N + slot`).
+#[derive(Clone, Copy, Debug)]
+pub struct WideSlots {
+    base: u32,
+    /// Bit `s`: slot `s` is used and not yet yielded.
+    mask: u32,
+}
+
+impl Iterator for WideSlots {
+    type Item = u32;
+
+    #[inline]
+    fn next(&mut self) -> Option<u32> {
+        (self.mask != 0).then(|| {
+            let slot = self.mask.trailing_zeros();
+            self.mask &= self.mask - 1;
+            self.base + slot
+        })
+    }
+}
+
+impl DoubleEndedIterator for WideSlots {
+    #[inline]
+    fn next_back(&mut self) -> Option<u32> {
+        (self.mask != 0).then(|| {
+            let slot = 31 - self.mask.leading_zeros();
+            self.mask &= !(1 << slot);
+            self.base + slot
+        })
+    }
+}
 
 impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
-    /// Visits the primitives of every leaf slot whose box passes `slot_test`.
-    fn for_each_leaf_primitive<P, F>(&self, mut slot_test: P, mut visit: F) -> ControlFlow<()>
+    /// The used slots of node `n`.
+    #[inline]
+    fn slots_of(&self, n: u32) -> WideSlots {
+        let node = &self.nodes[n as usize];
+        let mask = (0..N)
+            .filter(|&s| node.is_used(s))
+            .fold(0u32, |m, s| m | (1 << s));
+        WideSlots {
+            base: n * N as u32,
+            mask,
+        }
+    }
+}
+
+/// The tree seen one slot at a time: a slot is a node of the view, with its box, and its
+/// children are the used slots of the node it points to. Every query but rays walks this
+/// view through the shared code; rays keep the SIMD walk, which tests a node's slots at once.
+impl<const N: usize, L: WideLayout<N>> BoundingTree for WideBvh<N, L> {
+    type Volume = Aabb;
+    type Children<'a>
+        = WideSlots
     where
-        P: FnMut(&Aabb) -> bool,
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        if self.nodes.is_empty() || !slot_test(&self.bounds) {
-            return ControlFlow::Continue(());
-        }
-        let mut stack: TraversalStack<u32> = TraversalStack::new();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            for slot in (0..N).filter(|&s| node.is_used(s)) {
-                if !slot_test(&node.child_aabb(slot)) {
-                    continue;
-                }
-                if node.is_leaf(slot) {
-                    self.visit_slot_primitives(n, slot, &mut visit)?;
-                } else {
-                    stack.push(node.child(slot));
-                }
-            }
-        }
-        ControlFlow::Continue(())
+        Self: 'a;
+
+    #[inline]
+    fn root(&self) -> Option<u32> {
+        debug_assert!(self.nodes.len() < (ROOT as usize) / N);
+        (!self.nodes.is_empty()).then_some(ROOT)
     }
 
-    fn visit_slot_primitives<F>(&self, node: u32, slot: usize, visit: &mut F) -> ControlFlow<()>
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        let n = &self.nodes[node as usize];
-        let first = n.child(slot) as usize;
-        for &p in &self.primitive_indices[first..first + n.count(slot) as usize] {
-            visit(p)?;
+    #[inline]
+    fn node_bounds(&self, id: u32) -> Aabb {
+        if id == ROOT {
+            return self.bounds;
         }
-        ControlFlow::Continue(())
+        let slot = id as usize % N;
+        self.nodes[id as usize / N].child_aabb(slot)
     }
 
-    /// Everything below a slot, without tests (a subtree the frustum fully contains).
-    fn visit_slot_subtree<F>(&self, node: u32, slot: usize, visit: &mut F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        let n = &self.nodes[node as usize];
-        if n.is_leaf(slot) {
-            let _ = self.visit_slot_primitives(node, slot, visit);
-            return;
+    #[inline]
+    fn node_children(&self, id: u32) -> Option<WideSlots> {
+        if id == ROOT {
+            return Some(self.slots_of(0));
         }
-        let mut stack: TraversalStack<u32> = TraversalStack::new();
-        stack.push(n.child(slot));
-        while let Some(c) = stack.pop() {
-            let cn = &self.nodes[c as usize];
-            for s in (0..N).filter(|&s| cn.is_used(s)) {
-                if cn.is_leaf(s) {
-                    let _ = self.visit_slot_primitives(c, s, visit);
-                } else {
-                    stack.push(cn.child(s));
-                }
-            }
+        let node = &self.nodes[id as usize / N];
+        let slot = id as usize % N;
+        (!node.is_leaf(slot)).then(|| self.slots_of(node.child(slot)))
+    }
+
+    #[inline]
+    fn node_primitives(&self, id: u32) -> &[u32] {
+        if id == ROOT {
+            return &[];
+        }
+        let node = &self.nodes[id as usize / N];
+        let slot = id as usize % N;
+        if node.is_leaf(slot) {
+            let first = node.child(slot) as usize;
+            &self.primitive_indices[first..first + node.count(slot) as usize]
+        } else {
+            &[]
         }
     }
 }
@@ -119,10 +152,10 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         // Announcing walks are those of closest-hit queries (`closest_hit` announces to a hook
         // that does nothing), the picking casts' over entity trees among them. Their loop runs
         // a second time compiled with AVX2 where the CPU has it: the VEX encoding's
-        // three-operand forms drop the register copies of the node test (1.5-2% a ray at 10^5
-        // entities, paired), and 16-wide nodes are tested 8 lanes at a time
-        // (`SlotRayTest::intersect_slots_wide`; about 4% more, where `_mm256` intrinsics had
-        // cost 5-9%).
+        // three-operand forms drop the register copies of the node test, and 16-wide nodes
+        // are tested 8 lanes at a time (`SlotRayTest::intersect_slots_wide`), where `_mm256`
+        // intrinsics had been slower; each a paired gain on picking rays at 10^5 entities
+        // (docs/experiments.md, Picking).
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
             // SAFETY: the CPU has AVX2 and FMA.
@@ -156,143 +189,4 @@ unsafe fn visit_ray_avx2<const N: usize, const COSTLY_LEAVES: bool, const ORDERE
     visit_ray::<N, COSTLY_LEAVES, true, ORDERED, L, _, _>(tree, ray, announce, visit)
 }
 
-impl<const N: usize, L: WideLayout<N>> SpatialQuery for WideBvh<N, L> {
-    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        let _ = self.for_each_leaf_primitive(|b| b.intersects_aabb(aabb), visit);
-    }
-
-    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        let _ = self.for_each_leaf_primitive(|b| sphere.intersects_aabb(b), visit);
-    }
-
-    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
-    where
-        F: FnMut(u32) -> ControlFlow<()>,
-    {
-        let _ = self.for_each_leaf_primitive(|b| b.contains_point(point), visit);
-    }
-
-    fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
-    where
-        F: FnMut(u32, Containment),
-    {
-        if self.nodes.is_empty() || !frustum.intersects_aabb(&self.bounds) {
-            return;
-        }
-        let mut stack: TraversalStack<u32> = TraversalStack::new();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            for slot in (0..N).filter(|&s| node.is_used(s)) {
-                match frustum.classify_aabb(&node.child_aabb(slot)) {
-                    Containment::Outside => {}
-                    Containment::Inside => self.visit_slot_subtree(n, slot, &mut |p| {
-                        visit(p, Containment::Inside);
-                        ControlFlow::Continue(())
-                    }),
-                    Containment::Intersecting if node.is_leaf(slot) => {
-                        let _ = self.visit_slot_primitives(n, slot, &mut |p| {
-                            visit(p, Containment::Intersecting);
-                            ControlFlow::Continue(())
-                        });
-                    }
-                    Containment::Intersecting => stack.push(node.child(slot)),
-                }
-            }
-        }
-    }
-
-    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
-    where
-        C: FnMut(&Aabb, u32) -> ViewClassification,
-        F: FnMut(u32, ViewMasks),
-    {
-        if self.nodes.is_empty() || views == 0 {
-            return;
-        }
-        // As the binary walk (`query::views`), per slot: each entry carries its node's masks.
-        let mut stack: TraversalStack<(u32, ViewMasks)> = TraversalStack::new();
-        stack.push((0, ViewMasks::undecided(views)));
-        while let Some((n, above)) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            for slot in (0..N).filter(|&s| node.is_used(s)) {
-                let c = classify(&node.child_aabb(slot), above.crossing);
-                let Some(masks) = above.below(c) else {
-                    continue;
-                };
-                if masks.crossing == 0 {
-                    self.visit_slot_subtree(n, slot, &mut |p| {
-                        visit(p, masks);
-                        ControlFlow::Continue(())
-                    });
-                } else if node.is_leaf(slot) {
-                    let _ = self.visit_slot_primitives(n, slot, &mut |p| {
-                        visit(p, masks);
-                        ControlFlow::Continue(())
-                    });
-                } else {
-                    stack.push((node.child(slot), masks));
-                }
-            }
-        }
-    }
-
-    fn nearest_k<F>(&self, point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
-    where
-        F: FnMut(u32) -> f32,
-    {
-        if self.nodes.is_empty() || k == 0 {
-            return Vec::new();
-        }
-        // Best-first over slots: (box distance, node, slot); slot N stands for "the root".
-        let key = |d2: f32| d2.to_bits();
-        let mut frontier: BinaryHeap<Reverse<(u32, u32, usize)>> = BinaryHeap::new();
-        let mut best: BinaryHeap<(u32, u32)> = BinaryHeap::new(); // (d2 bits, id): max-heap
-        frontier.push(Reverse((
-            key(self.bounds.distance_squared_to_point(point)),
-            0,
-            N,
-        )));
-        while let Some(Reverse((d2, n, slot))) = frontier.pop() {
-            if best.len() == k && best.peek().is_some_and(|w| d2 > w.0) {
-                break;
-            }
-            let node = &self.nodes[n as usize];
-            if slot == N {
-                for s in (0..N).filter(|&s| node.is_used(s)) {
-                    let d = node.child_aabb(s).distance_squared_to_point(point);
-                    frontier.push(Reverse((key(d), n, s)));
-                }
-            } else if node.is_leaf(slot) {
-                let _ = self.visit_slot_primitives(n, slot, &mut |p| {
-                    let d = distance_squared(p);
-                    if !d.is_nan() {
-                        let cand = (key(d.max(0.0)), p);
-                        if best.len() < k {
-                            best.push(cand);
-                        } else if best.peek().is_some_and(|w| cand < *w) {
-                            best.pop();
-                            best.push(cand);
-                        }
-                    }
-                    ControlFlow::Continue(())
-                });
-            } else {
-                frontier.push(Reverse((d2, node.child(slot), N)));
-            }
-        }
-        // Non-negative floats order like their bit patterns, so the heaps compared bits.
-        let mut out: Vec<(u32, f32)> = best
-            .into_iter()
-            .map(|(d, id)| (id, f32::from_bits(d)))
-            .collect();
-        out.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        out
-    }
-}
+crate::impl_spatial_query_for_tree!(@queries impl[const N: usize, L: WideLayout<N>] WideBvh<N, L>);

@@ -1,0 +1,112 @@
+//! Every triangle tested in turn: the oracle of [`TriangleQuery`].
+
+use super::TriangleQuery;
+use crate::mesh::{MeshError, MeshHit};
+use crate::{Aabb, Backfaces, Ray, Triangle, WatertightRay};
+
+/// The triangles of one mesh in a list, each query a loop over all of them with the same
+/// watertight test the trees run: the reference the conformance suite compares every
+/// [`TriangleQuery`] with.
+#[derive(Clone, Debug, Default)]
+pub struct BruteForceMesh {
+    /// Triangle `i` of the index buffer, or `None` when a corner is not finite.
+    triangles: Vec<Option<Triangle>>,
+}
+
+impl BruteForceMesh {
+    /// The mesh of an indexed triangle list (triangle `i` uses `indices[3i..3i + 3]`).
+    pub fn new(vertices: &[glam::Vec3], indices: &[u32]) -> Result<Self, MeshError> {
+        if !indices.len().is_multiple_of(3) {
+            return Err(MeshError::NotATriangleList {
+                index_count: indices.len(),
+            });
+        }
+        let corner = |i: u32| {
+            vertices
+                .get(i as usize)
+                .copied()
+                .ok_or(MeshError::IndexOutOfRange {
+                    index: i,
+                    vertex_count: vertices.len(),
+                })
+        };
+        let triangles = indices
+            .chunks_exact(3)
+            .map(|t| {
+                let tri = Triangle::new(corner(t[0])?, corner(t[1])?, corner(t[2])?);
+                let finite = tri.vertices.iter().all(|v| v.is_finite());
+                Ok(finite.then_some(tri))
+            })
+            .collect::<Result<_, MeshError>>()?;
+        Ok(Self { triangles })
+    }
+
+    fn finite(&self) -> impl Iterator<Item = (u32, &Triangle)> {
+        self.triangles
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.as_ref().map(|t| (i as u32, t)))
+    }
+
+    fn record(triangle: u32, tri: &Triangle, hit: crate::TriangleHit) -> MeshHit {
+        let [a, b, c] = tri.vertices;
+        MeshHit {
+            t: hit.t,
+            triangle,
+            barycentrics: hit.barycentrics(),
+            geometric_normal: (b - a).cross(c - a).normalize_or_zero(),
+            front_face: hit.front_face,
+        }
+    }
+}
+
+impl TriangleQuery for BruteForceMesh {
+    fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.finite()
+            .fold(Aabb::EMPTY, |acc, (_, t)| acc.union(&t.aabb()))
+    }
+
+    fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
+        let mut wt = WatertightRay::new(ray);
+        let mut best = None;
+        for (i, tri) in self.finite() {
+            // A tie keeps the lower index, as the trees' walks do for hits in one leaf.
+            if let Some(hit) = wt.intersect(tri, backfaces)
+                && best.is_none_or(|b: MeshHit| hit.t < b.t)
+            {
+                wt.set_t_max(hit.t);
+                best = Some(Self::record(i, tri, hit));
+            }
+        }
+        best
+    }
+
+    fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
+        let wt = WatertightRay::new(ray);
+        self.finite()
+            .any(|(_, tri)| wt.intersect(tri, backfaces).is_some())
+    }
+
+    fn cast_ray_all(&self, ray: &Ray, backfaces: Backfaces, out: &mut Vec<MeshHit>) {
+        let wt = WatertightRay::new(ray);
+        let start = out.len();
+        for (i, tri) in self.finite() {
+            if let Some(hit) = wt.intersect(tri, backfaces) {
+                out.push(Self::record(i, tri, hit));
+            }
+        }
+        out[start..].sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+    }
+
+    fn for_each_triangle_overlapping<F: FnMut(u32)>(&self, aabb: &Aabb, mut visit: F) {
+        for (i, tri) in self.finite() {
+            if tri.aabb().intersects_aabb(aabb) {
+                visit(i);
+            }
+        }
+    }
+}

@@ -1,0 +1,138 @@
+//! The interface of an index that follows moving objects: insert, update and remove by
+//! handle, and per-frame upkeep.
+
+use super::SpatialQuery;
+use crate::Aabb;
+use core::fmt;
+use core::hash::Hash;
+use std::time::Duration;
+
+/// Why an edit of a [`DynamicIndex`] was refused. The index is unchanged when one is
+/// returned: a refused edit never loses or duplicates an entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IndexError {
+    /// The box has a NaN or infinite coordinate, or `min > max`: in a tree it would poison
+    /// every ancestor's box (NaN fails every comparison and hides whole subtrees from
+    /// queries).
+    InvalidBounds,
+    /// The handle was removed (or never came from this index).
+    StaleHandle,
+    /// The index holds as many entries as its handles can name.
+    CapacityExceeded,
+}
+
+impl fmt::Display for IndexError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InvalidBounds => f.write_str("bounds are NaN, infinite or inverted"),
+            Self::StaleHandle => f.write_str("the handle does not name a live entry"),
+            Self::CapacityExceeded => f.write_str("the index is full"),
+        }
+    }
+}
+
+impl std::error::Error for IndexError {}
+
+/// What one [`DynamicIndex::maintain`] call did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UpkeepReport {
+    /// Nodes (or cells) whose bounds were recomputed for the edits since the last call.
+    pub refit_nodes: usize,
+    /// Entries moved to a better place within the budget (a tree's reinsertions).
+    pub improved: usize,
+    /// Whether the whole structure was rebuilt (or a rebuild made elsewhere swapped in).
+    pub rebuilt: bool,
+}
+
+/// Shape and cost of a [`DynamicIndex`], cheap to read every frame (no walk).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct IndexStats {
+    /// Entries held.
+    pub entries: usize,
+    /// Nodes or cells in use.
+    pub nodes: usize,
+    /// Depth of the deepest entry (0 for a flat structure).
+    pub depth: usize,
+    /// Bytes held by the structure's arrays.
+    pub memory_bytes: usize,
+    /// How much costlier queries are than on a fresh build over the same entries (1.0 =
+    /// as good as fresh), where the structure tracks it; `None` where it does not.
+    pub quality_ratio: Option<f32>,
+}
+
+/// An index over moving boxes: entries come and go by handle, move every frame, and the
+/// index stays ready for every [`SpatialQuery`].
+///
+/// The contract every implementation keeps (the conformance suite in
+/// `crates/accel/tests/conformance` checks it against [`BruteForceIndex`](super::BruteForceIndex)):
+/// - an entry is reported by queries from its `insert` to its `remove`, with the bounds of
+///   its last accepted `insert` or `update`, once per query;
+/// - a refused edit ([`IndexError`]) changes nothing;
+/// - after edits, call [`maintain`](Self::maintain) before the next query: it makes the
+///   structure consistent (a tree refits what moved), then spends up to its budget making
+///   later queries cheaper.
+///
+/// ```
+/// use accel::query::{BruteForceIndex, DynamicIndex};
+/// use accel::{Aabb, DynamicBvh, SpatialQuery};
+/// use core::ops::ControlFlow;
+/// use glam::Vec3A;
+/// use std::time::Duration;
+///
+/// fn follow<I: DynamicIndex>(index: &mut I) -> Vec<u32> {
+///     let a = index.insert(1, Aabb::new(Vec3A::ZERO, Vec3A::ONE)).unwrap();
+///     let b = index.insert(2, Aabb::new(Vec3A::splat(5.0), Vec3A::splat(6.0))).unwrap();
+///     index.update(a, Aabb::new(Vec3A::splat(10.0), Vec3A::splat(11.0))).unwrap();
+///     index.remove(b).unwrap();
+///     index.maintain(Duration::ZERO);
+///     let mut found = Vec::new();
+///     let query = Aabb::new(Vec3A::splat(9.0), Vec3A::splat(12.0));
+///     index.for_each_overlapping_aabb(&query, |id| {
+///         found.push(id);
+///         ControlFlow::Continue(())
+///     });
+///     found
+/// }
+/// assert_eq!(follow(&mut DynamicBvh::new()), [1]);
+/// assert_eq!(follow(&mut BruteForceIndex::new()), [1]);
+/// ```
+pub trait DynamicIndex: SpatialQuery {
+    /// A stable reference to one entry: valid from `insert` until `remove`. A handle kept
+    /// past `remove` is reported as stale, never taken for a later entry.
+    type Handle: Copy + Eq + Hash + fmt::Debug;
+
+    /// Adds an entry with the caller's `id` and its box.
+    fn insert(&mut self, id: u32, bounds: Aabb) -> Result<Self::Handle, IndexError>;
+
+    /// Gives an entry new bounds. `Ok(true)` when the structure changed; `Ok(false)` when
+    /// the entry still fits where it is (a fat leaf, a loose cell) and only its box was
+    /// written.
+    fn update(&mut self, handle: Self::Handle, bounds: Aabb) -> Result<bool, IndexError>;
+
+    /// Removes an entry, returning its id.
+    fn remove(&mut self, handle: Self::Handle) -> Result<u32, IndexError>;
+
+    /// The id of a live entry.
+    fn id(&self, handle: Self::Handle) -> Option<u32>;
+
+    /// The bounds last given to a live entry (not enlarged by any margin).
+    fn bounds_of(&self, handle: Self::Handle) -> Option<Aabb>;
+
+    /// Number of entries.
+    fn len(&self) -> usize;
+
+    /// True when the index holds nothing.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Removes every entry; every handle becomes stale.
+    fn clear(&mut self);
+
+    /// The once-per-frame call after edits: makes the index consistent for queries, then
+    /// spends up to `budget` improving it.
+    fn maintain(&mut self, budget: Duration) -> UpkeepReport;
+
+    /// Shape and cost, without a walk.
+    fn index_stats(&self) -> IndexStats;
+}

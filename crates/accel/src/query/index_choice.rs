@@ -1,0 +1,250 @@
+//! Choosing the dynamic index at run time.
+//!
+//! The queries take closures, so [`SpatialQuery`] and [`DynamicIndex`] have generic methods
+//! and no `dyn` form: the choice is an enum over every implementation instead, each call one
+//! `match` away from the chosen structure's code.
+
+use super::dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+use super::views::{ViewClassification, ViewMasks};
+use super::{BruteForceIndex, FlatHandle, RayWalk, SpatialQuery};
+use crate::dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
+use crate::{Aabb, Containment, Frustum, Ray, Sphere};
+use core::ops::ControlFlow;
+use glam::Vec3A;
+use std::time::Duration;
+
+/// The structures a [`AnyIndex`] can be.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum IndexKind {
+    /// [`DynamicBvh`]: SAH insertion, fat leaves, refit of moved paths, an optimiser.
+    #[default]
+    DynamicBvh,
+    /// [`BruteForceIndex`]: a flat list, every query a loop. For a handful of objects, and
+    /// as the oracle in tests.
+    BruteForce,
+}
+
+/// One of the dynamic indexes, chosen at run time ([`IndexKind`]).
+///
+/// ```
+/// use accel::query::{AnyIndex, DynamicIndex, IndexKind};
+/// use accel::{Aabb, Ray, SpatialQuery};
+/// use glam::Vec3A;
+/// use std::time::Duration;
+/// for kind in [IndexKind::DynamicBvh, IndexKind::BruteForce] {
+///     let mut index = AnyIndex::new(kind);
+///     let b = Aabb::new(Vec3A::splat(2.0), Vec3A::splat(3.0));
+///     index.insert(7, b).unwrap();
+///     index.maintain(Duration::ZERO);
+///     let ray = Ray::new(Vec3A::ZERO, Vec3A::ONE);
+///     let hit = index.cast_ray(&ray, |_, r| r.intersect_aabb(&b)).unwrap();
+///     assert_eq!((index.kind(), hit.primitive), (kind, 7));
+/// }
+/// ```
+#[derive(Clone, Debug)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one index per world, queried in hot loops: a box would add a pointer chase to \
+              every query to save a few hundred bytes once"
+)]
+pub enum AnyIndex {
+    /// A [`DynamicBvh`].
+    DynamicBvh(DynamicBvh),
+    /// A [`BruteForceIndex`].
+    BruteForce(BruteForceIndex),
+}
+
+/// A handle into an [`AnyIndex`]: the handle of the structure it came from. A handle of one
+/// kind given to an index of another is stale.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AnyHandle {
+    /// A [`DynamicBvh`] leaf.
+    DynamicBvh(LeafHandle),
+    /// A [`BruteForceIndex`] entry.
+    BruteForce(FlatHandle),
+}
+
+impl Default for AnyIndex {
+    fn default() -> Self {
+        Self::new(IndexKind::default())
+    }
+}
+
+/// Runs `$body` on whichever structure `$index` holds, bound to `$inner`.
+macro_rules! on_inner {
+    ($index:expr, $inner:ident => $body:expr) => {
+        match $index {
+            AnyIndex::DynamicBvh($inner) => $body,
+            AnyIndex::BruteForce($inner) => $body,
+        }
+    };
+}
+
+impl AnyIndex {
+    /// An empty index of the given kind, with that structure's default settings.
+    pub fn new(kind: IndexKind) -> Self {
+        match kind {
+            IndexKind::DynamicBvh => Self::DynamicBvh(DynamicBvh::new()),
+            IndexKind::BruteForce => Self::BruteForce(BruteForceIndex::new()),
+        }
+    }
+
+    /// An empty dynamic BVH with the given settings.
+    pub fn dynamic_bvh(config: DynamicBvhConfig) -> Self {
+        Self::DynamicBvh(DynamicBvh::with_config(config))
+    }
+
+    /// Which structure this is.
+    pub fn kind(&self) -> IndexKind {
+        match self {
+            Self::DynamicBvh(_) => IndexKind::DynamicBvh,
+            Self::BruteForce(_) => IndexKind::BruteForce,
+        }
+    }
+
+    /// The dynamic BVH, when that is the structure.
+    pub fn as_dynamic_bvh(&self) -> Option<&DynamicBvh> {
+        match self {
+            Self::DynamicBvh(tree) => Some(tree),
+            _ => None,
+        }
+    }
+
+    /// The dynamic BVH, mutably, when that is the structure.
+    pub fn as_dynamic_bvh_mut(&mut self) -> Option<&mut DynamicBvh> {
+        match self {
+            Self::DynamicBvh(tree) => Some(tree),
+            _ => None,
+        }
+    }
+}
+
+impl DynamicIndex for AnyIndex {
+    type Handle = AnyHandle;
+
+    fn insert(&mut self, id: u32, bounds: Aabb) -> Result<AnyHandle, IndexError> {
+        match self {
+            Self::DynamicBvh(tree) => tree.insert(id, bounds).map(AnyHandle::DynamicBvh),
+            Self::BruteForce(list) => {
+                DynamicIndex::insert(list, id, bounds).map(AnyHandle::BruteForce)
+            }
+        }
+    }
+
+    fn update(&mut self, handle: AnyHandle, bounds: Aabb) -> Result<bool, IndexError> {
+        match (self, handle) {
+            (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.update(h, bounds),
+            (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.update(h, bounds),
+            _ => Err(IndexError::StaleHandle),
+        }
+    }
+
+    fn remove(&mut self, handle: AnyHandle) -> Result<u32, IndexError> {
+        match (self, handle) {
+            (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.remove(h),
+            (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.remove(h),
+            _ => Err(IndexError::StaleHandle),
+        }
+    }
+
+    fn id(&self, handle: AnyHandle) -> Option<u32> {
+        match (self, handle) {
+            (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.id(h),
+            (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.id(h),
+            _ => None,
+        }
+    }
+
+    fn bounds_of(&self, handle: AnyHandle) -> Option<Aabb> {
+        match (self, handle) {
+            (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.bounds_of(h),
+            (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.bounds_of(h),
+            _ => None,
+        }
+    }
+
+    fn len(&self) -> usize {
+        on_inner!(self, inner => DynamicIndex::len(inner))
+    }
+
+    fn clear(&mut self) {
+        on_inner!(self, inner => DynamicIndex::clear(inner))
+    }
+
+    fn maintain(&mut self, budget: Duration) -> UpkeepReport {
+        on_inner!(self, inner => DynamicIndex::maintain(inner, budget))
+    }
+
+    fn index_stats(&self) -> IndexStats {
+        on_inner!(self, inner => inner.index_stats())
+    }
+}
+
+impl RayWalk for AnyIndex {
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.walk_ray(ray, visit))
+    }
+
+    fn walk_ray_any_order<V>(&self, ray: &mut Ray, visit: V)
+    where
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.walk_ray_any_order(ray, visit))
+    }
+
+    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
+    where
+        A: FnMut(u32),
+        V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.walk_ray_announcing(ray, announce, visit))
+    }
+}
+
+impl SpatialQuery for AnyIndex {
+    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.for_each_overlapping_aabb(aabb, visit))
+    }
+
+    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.for_each_overlapping_sphere(sphere, visit))
+    }
+
+    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
+    where
+        F: FnMut(u32) -> ControlFlow<()>,
+    {
+        on_inner!(self, inner => inner.for_each_containing_point(point, visit))
+    }
+
+    fn for_each_in_frustum<F>(&self, frustum: &Frustum, visit: F)
+    where
+        F: FnMut(u32, Containment),
+    {
+        on_inner!(self, inner => inner.for_each_in_frustum(frustum, visit))
+    }
+
+    fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
+    where
+        C: FnMut(&Aabb, u32) -> ViewClassification,
+        F: FnMut(u32, ViewMasks),
+    {
+        on_inner!(self, inner => inner.for_each_in_views(views, classify, visit))
+    }
+
+    fn nearest_k<F>(&self, point: Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>
+    where
+        F: FnMut(u32) -> f32,
+    {
+        on_inner!(self, inner => inner.nearest_k(point, k, distance_squared))
+    }
+}
