@@ -45,6 +45,8 @@ mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
 #[cfg(feature = "picking")]
+mod meshes;
+#[cfg(feature = "picking")]
 pub mod picking;
 mod prefetch;
 mod settings;

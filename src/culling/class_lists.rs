@@ -44,10 +44,10 @@ impl ClassLists {
 /// Sorts a view's list of visible entities, as Bevy's diff of `VisibleEntities` needs. Why not
 /// `sort_unstable` alone: the lists come out of the culling as a few sorted runs (the tree's
 /// finds in slot order, which follows Bevy's tables; then the entities outside the trees), and
-/// the unstable sort is linear only on a single run; on two it sorts from scratch (0.68 ms
-/// against 0.19 ms for the stable sort, which merges runs, on 50k entities in two runs). On
-/// many runs the unstable sort is the faster (0.73 ms against 1.19 ms on 50k in random order),
-/// so the runs are counted first (one pass).
+/// the unstable sort is linear only on a single run; on two it sorts from scratch, several
+/// times slower than the stable sort, which merges runs. On many runs the unstable sort is
+/// the faster, so the runs are counted first (one pass). Measured on 50k entities:
+/// docs/experiments.md, Culling.
 pub(crate) fn sort_visible(list: &mut [Entity]) {
     /// Up to this many runs, merging them beats sorting from scratch.
     const MERGE_UP_TO_RUNS: usize = 8;

@@ -12,23 +12,23 @@
 //! Bevy's own loop does. The tree path reads the components it decides by straight from
 //! Bevy's table columns, at the row each entity was last seen in (checked against the
 //! table's entity column), instead of looking each entity up.
+//!
+//! - `camera/`: the camera views' system and its passes.
+//! - `light/`: the shadow views of lights (cargo feature `light_culling`).
+//! - Shared by both: `bevy_tests` (Bevy's own per-entity rules), `bevy_rounding` (tree
+//!   verdicts Bevy's tests cannot contradict), `class_lists` (visible entities per class),
+//!   `slot_order` (found slots in slot order), `untracked` (entities no walk finds) and
+//!   `stats` ([`CullingStats`]).
 
 mod bevy_rounding;
+mod bevy_tests;
+mod camera;
 mod class_lists;
-mod flat_pass;
-mod found_pass;
 #[cfg(feature = "light_culling")]
-mod light_verdicts;
-#[cfg(feature = "light_culling")]
-mod light_views;
-#[cfg(feature = "light_culling")]
-mod light_walks;
+mod light;
 mod slot_order;
-mod system;
-mod table_rows;
-mod tree_pass;
+mod stats;
 mod untracked;
-mod view_walk;
 
 use crate::AccelSystems;
 use bevy::camera::visibility::{
@@ -37,7 +37,7 @@ use bevy::camera::visibility::{
 use bevy::ecs::schedule::ScheduleCleanupPolicy;
 use bevy::prelude::*;
 
-pub use system::CullingStats;
+pub use stats::CullingStats;
 
 /// Replaces Bevy's CPU frustum culling with a traversal of the [`AccelTrees`](crate::AccelTrees).
 ///
@@ -81,10 +81,10 @@ impl Plugin for AccelCullingPlugin {
     fn build(&self, app: &mut App) {
         CullingStats::register(app);
         // In `Last`: after the camera and light passes of `PostUpdate`, whichever ran.
-        app.add_systems(Last, system::publish_culling_stats);
+        app.add_systems(Last, stats::publish_culling_stats);
         app.init_resource::<CullingStats>().add_systems(
             PostUpdate,
-            system::cull_views_with_trees
+            camera::cull_views_with_trees
                 .in_set(VisibilitySystems::CheckVisibility)
                 .after(AccelSystems::Stats)
                 .after(check_visibility_ranges),
@@ -99,50 +99,6 @@ impl Plugin for AccelCullingPlugin {
         )
         .ok();
         #[cfg(feature = "light_culling")]
-        replace_light_culling(app);
+        light::replace_light_culling(app);
     }
-}
-
-/// Swaps bevy_light's shadow-caster culling for the trees', if bevy_light's `LightPlugin`
-/// added it (without it there are no light views to cull).
-#[cfg(feature = "light_culling")]
-fn replace_light_culling(app: &mut App) {
-    use bevy::light::{
-        SimulationLightSystems, check_dir_light_mesh_visibility, check_point_light_mesh_visibility,
-    };
-    let mut removed = 0;
-    for result in [
-        app.remove_systems_in_set(
-            PostUpdate,
-            check_dir_light_mesh_visibility,
-            ScheduleCleanupPolicy::RemoveSystemsOnly,
-        ),
-        app.remove_systems_in_set(
-            PostUpdate,
-            check_point_light_mesh_visibility,
-            ScheduleCleanupPolicy::RemoveSystemsOnly,
-        ),
-    ] {
-        removed += result.unwrap_or(0);
-    }
-    if removed == 0 {
-        return;
-    }
-    // Bevy's ordering for these systems: after the camera views (lights may only add
-    // visibility), before entities no view saw are marked hidden.
-    app.add_systems(
-        PostUpdate,
-        (
-            light_views::cull_directional_lights,
-            light_views::cull_point_and_spot_lights,
-        )
-            .chain()
-            .in_set(SimulationLightSystems::CheckLightVisibility)
-            .after(VisibilitySystems::CalculateBounds)
-            .after(TransformSystems::Propagate)
-            .after(SimulationLightSystems::UpdateLightFrusta)
-            .after(VisibilitySystems::CheckVisibility)
-            .after(AccelSystems::Stats)
-            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible),
-    );
 }

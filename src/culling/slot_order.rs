@@ -14,8 +14,8 @@ pub(crate) const LOOKUP_AHEAD: usize = 64;
 /// Why slot order: slots are handed out as the sync system meets entities, which is the order
 /// of Bevy's tables, so deciding entities by slot makes their component reads nearly sequential
 /// where the walk's spatial order makes each one a cache miss. Why not a comparison sort: at
-/// 1M entities with 5% in view, sorting the 50k finds took longer than the walk itself (4.2 ms
-/// against 2.9 ms, measured in `benches/culling.rs`). When the finds are dense in the slot
+/// 1M entities with 5% in view, sorting the 50k finds took longer than the walk itself
+/// (`benches/culling.rs`; docs/experiments.md, Culling). When the finds are dense in the slot
 /// range a bitset over the slots orders them in linear time instead.
 #[derive(Default)]
 pub(crate) struct FoundSlots {
@@ -145,7 +145,7 @@ impl FoundSlots {
     /// [`LOOKUP_AHEAD`] keys earlier. Why: ascending slots are still scattered through a
     /// large world's slot arrays (a view's slab of a grid is a few slots of every row), too far
     /// apart for the hardware prefetcher; a lookup per key waiting on memory was nearly all of
-    /// the drain's time (0.75 ms for 50k slots at 1M entities).
+    /// the drain's time (docs/experiments.md, Culling).
     #[cfg(feature = "light_culling")]
     fn sorted_keys_prefetching<'a>(
         keys: &'a [SlotKey],

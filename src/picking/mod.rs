@@ -10,14 +10,13 @@
 //! candidate's mesh by tree slot, so the ECS is read only for the meshes a ray hits.
 
 mod backend;
-mod mesh_cache;
 mod ray_cast;
-mod slot_meshes;
 
+pub use crate::meshes::{AccelMeshCache, CachedMesh, MeshShape, SlotMeshTable, SlotMeshTableMode};
 pub use backend::{AccelHitExtra, update_hits};
-pub use mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
 pub use ray_cast::AccelRayCast;
-pub use slot_meshes::{SlotMeshTable, SlotMeshTableMode};
+
+use crate::meshes;
 
 use crate::{AccelSettings, AccelSystems, AccelTrees};
 use bevy::asset::AssetEventSystems;
@@ -51,8 +50,8 @@ pub struct AccelPickingSettings {
     pub slot_mesh_table: SlotMeshTableMode,
     /// Under [`SlotMeshTableMode::Auto`], the rays per frame, per tracked entity, from which
     /// the table is kept: `1/300` by default. Keeping it costs a scan of every mesh entity's
-    /// change ticks each frame (about 0.85 ns an entity on the bench machine), and it saves
-    /// about 0.3 us per ray at 100k entities (BENCHMARKS.md).
+    /// change ticks each frame, and it saves time on every ray cast; the default is where the
+    /// two met on the picking bench (docs/experiments.md, Picking).
     pub slot_mesh_table_rays_per_entity: f32,
 }
 
@@ -83,21 +82,21 @@ impl Plugin for AccelPickingPlugin {
         app.init_resource::<AccelPickingSettings>()
             .init_resource::<AccelMeshCache>()
             .init_resource::<SlotMeshTable>()
-            .init_resource::<slot_meshes::PendingSlotMeshes>()
+            .init_resource::<meshes::PendingSlotMeshes>()
             .register_type::<AccelPickingSettings>()
             .register_type::<SlotMeshTableMode>()
             .register_type::<AccelPickingCamera>()
             .add_systems(
                 PostUpdate,
-                mesh_cache::invalidate_changed_meshes
+                meshes::invalidate_changed_meshes
                     .after(AssetEventSystems)
                     .run_if(resource_exists::<Assets<Mesh>>),
             )
             .add_systems(
                 PostUpdate,
-                slot_meshes::keep_slot_mesh_table
+                meshes::keep_slot_mesh_table
                     .after(AccelSystems::Maintain)
-                    .after(mesh_cache::invalidate_changed_meshes)
+                    .after(meshes::invalidate_changed_meshes)
                     .before(AccelSystems::Stats)
                     // The trees stand still while the plugin is off, and so does the table.
                     .run_if(resource_exists::<AccelTrees>)
@@ -114,7 +113,7 @@ impl Plugin for AccelPickingPlugin {
                     .run_if(resource_exists::<RayMap>)
                     .run_if(resource_exists::<Messages<PointerHits>>),
             );
-        slot_meshes::add_slot_mesh_observers(app);
+        meshes::add_slot_mesh_observers(app);
     }
 
     fn finish(&self, app: &mut App) {

@@ -1,7 +1,8 @@
 //! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
 
-use super::mesh_cache::{AccelMeshCache, CachedMesh, MeshShape};
-use super::slot_meshes::{SlotMeshLookup, SlotMeshTable};
+use crate::meshes::{
+    AccelMeshCache, CachedMesh, MeshShape, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
+};
 use crate::{AccelTrees, LocalFrame};
 use accel::query::ray_walk::closest_hit_announcing;
 use accel::{
@@ -31,8 +32,8 @@ type MeshFilter = Or<(With<Mesh3d>, With<Mesh2d>, With<SimplifiedMesh>)>;
 ///
 /// No `GlobalTransform`: a hit's world data comes from the frame's inverse (see
 /// [`LocalFrame::world_from_local`](crate::LocalFrame::world_from_local)). Perf put the wait
-/// for that row at a quarter of a candidate's test, and rays in the picking bench ran 6-11%
-/// faster without it.
+/// for that row at a quarter of a candidate's test, and rays in the picking bench ran faster
+/// without it (docs/experiments.md, Picking).
 type MeshTargetData = (
     Read<InheritedVisibility>,
     Read<ViewVisibility>,
@@ -331,8 +332,8 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
                     // any component read: a third of the candidates stop here. No test of the
                     // exact world box first: the oriented box lies inside it, and the static
-                    // trees' boxes are those boxes already (rays at 10^5 entities ran 1% faster
-                    // without it).
+                    // trees' boxes are those boxes already (rays at 10^5 entities ran a little
+                    // faster without it: docs/experiments.md, Picking).
                     let frame = trees.local_frame(slot)?;
                     let local = r.transformed(&frame.local_from_world);
                     let entry = local.intersect_aabb(&frame.local_bounds)?;
@@ -404,22 +405,6 @@ fn visible(
         RayCastVisibility::Visible => inherited.is_none_or(|v| v.get()),
         RayCastVisibility::VisibleInView => view.is_none_or(|v| v.get()),
     }
-}
-
-/// The mesh Bevy's ray cast tests for an entity (its `SimplifiedMesh`, else its `Mesh3d`, else
-/// its `Mesh2d`), and whether back faces count (`RayCastBackfaces`, or a 2d mesh: Bevy never
-/// culls those). `None` for an entity with none of the three.
-pub(crate) fn ray_cast_mesh<'a>(
-    mesh3d: Option<&'a Mesh3d>,
-    mesh2d: Option<&'a Mesh2d>,
-    simplified: Option<&'a SimplifiedMesh>,
-    backfaces: bool,
-) -> Option<(&'a Handle<Mesh>, bool)> {
-    let handle = simplified
-        .map(|m| &m.0)
-        .or(mesh3d.map(|m| &m.0))
-        .or(mesh2d.map(|m| &m.0))?;
-    Some((handle, backfaces || mesh2d.is_some()))
 }
 
 /// The hit on a mesh's shape (its triangles, or its box where the mesh cannot be read);

@@ -2,48 +2,29 @@
 //!
 //! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
 //!   rules.
-//! - `build` and the `split_*` files: the top-down builder.
-//! - `lbvh`: the linear BVH (Morton-sorted radix tree), the fastest build.
-//! - `morton`, `ploc`, `ploc_search`, `ploc_tree` and `reinsert`: the bottom-up builder (PLOC, with optional
-//!   reinsertion), which shares the top-down builder's output format and stopping rules.
+//! - `build/`: the builders, one file per strategy: the top-down driver and its splits, the
+//!   linear BVH (Morton-sorted radix tree, the fastest build), and the bottom-up PLOC builder
+//!   (with optional reinsertion), all sharing one output format and the same stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
 //! - [`SphereBvh`]: the same topology bounded by spheres instead of boxes.
 //! - [`wide`]: the tree collapsed to 4- or 8-wide nodes for SIMD traversal.
 //!
 //! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
-//! tree ([`crate::query::binary`]).
+//! tree ([`crate::query::walks`]).
 
-#[cfg(target_arch = "x86_64")]
-mod binning_avx2;
 mod build;
-#[cfg(feature = "rayon")]
-mod build_parallel;
 pub mod config;
-mod lbvh;
-mod morton;
 mod node;
-mod partition;
-mod ploc;
-mod ploc_search;
-mod ploc_tree;
-mod reinsert;
 mod sphere_tree;
-mod split_binned;
-mod split_exhaustive;
-mod split_object;
-#[cfg(target_arch = "x86_64")]
-mod split_sorted;
-mod split_sweep;
 pub mod stats;
 pub mod validate;
 pub mod wide;
 
+pub use build::{MAX_BINS, MAX_SEARCH_RADIUS};
 pub use config::{BuildConfig, SahCosts, SplitStrategy};
 pub use node::BvhNode;
-pub use ploc::MAX_SEARCH_RADIUS;
 pub use sphere_tree::SphereBvh;
-pub use split_binned::MAX_BINS;
 
 use crate::Aabb;
 use crate::query::BoundingTree;
@@ -86,7 +67,7 @@ impl Bvh {
     /// subtrees built in parallel (cargo feature `rayon`).
     #[cfg(feature = "rayon")]
     pub fn build_parallel(bounds: &[Aabb], config: &BuildConfig) -> Self {
-        let (nodes, primitive_indices) = build_parallel::build_nodes_parallel(bounds, config);
+        let (nodes, primitive_indices) = build::build_nodes_parallel(bounds, config);
         Self {
             nodes,
             primitive_indices,
@@ -180,6 +161,12 @@ impl Bvh {
 }
 
 impl BoundingTree for Bvh {
+    type Volume = Aabb;
+    type Children<'a>
+        = [u32; 2]
+    where
+        Self: 'a;
+
     #[inline]
     fn root(&self) -> Option<u32> {
         (!self.nodes.is_empty()).then_some(0)
@@ -204,7 +191,7 @@ impl BoundingTree for Bvh {
     }
 
     #[inline]
-    fn leaf_primitives(&self, node: u32) -> &[u32] {
+    fn node_primitives(&self, node: u32) -> &[u32] {
         let n = &self.nodes[node as usize];
         if n.is_leaf() {
             &self.primitive_indices[n.first as usize..(n.first + n.count) as usize]
@@ -228,4 +215,4 @@ impl BoundingTree for Bvh {
     }
 }
 
-crate::impl_spatial_query_for_binary_tree!(Bvh);
+crate::impl_spatial_query_for_tree!(Bvh);

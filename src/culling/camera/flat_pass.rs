@@ -1,9 +1,9 @@
 //! The flat pass: every cullable entity once, in table order and in parallel, as Bevy's own
 //! `check_visibility_cpu_culling` goes, for views that see most of the world.
 
-use super::class_lists::{ClassLists, sort_visible};
-use super::system::{ViewFilter, bevy_frustum_test};
 use super::view_walk::ViewWalk;
+use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use crate::culling::class_lists::{ClassLists, sort_visible};
 use crate::trees::AccelTrees;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
@@ -62,9 +62,10 @@ impl FlatTally {
 /// ([`super::view_walk::WalkForm::Bits`]), and which entities the trees hold.
 ///
 /// Why: Bevy's frustum test (a bounding sphere, then the oriented box, from the entity's
-/// transform) is most of what its loop spends per entity. Skipping it measured our flat pass
-/// at 1M entities, 100% in view, at 38-40 ms against 61-85 ms with it (Bevy's own system:
-/// 65-92 ms in the same runs). The walk settles it for every entity it proves inside or
+/// transform) is most of what its loop spends per entity: skipping it (a throwaway build)
+/// cut our flat pass at 1M entities, 100% in view, by a third to a half
+/// (docs/experiments.md, Culling).
+/// The walk settles it for every entity it proves inside or
 /// never reaches, by the same rules the tree path decides by, so the results are Bevy's; the
 /// entities it cannot settle (leaves crossing a plane, entities outside the trees) get
 /// Bevy's test.

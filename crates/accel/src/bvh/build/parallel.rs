@@ -1,25 +1,25 @@
 //! The parallel build: the same splits as the serial builder, subtrees built on rayon's pool.
 
-use super::build::{BuildPrim, NodeBounds, build_subtree_within, collect_prims, split_node};
-use super::config::{BuildConfig, SplitStrategy};
-use super::node::BvhNode;
+use super::top_down::{BuildPrim, NodeBounds, build_subtree_within, collect_prims, split_node};
 use crate::Aabb;
+use crate::bvh::config::{BuildConfig, SplitStrategy};
+use crate::bvh::node::BvhNode;
 
 /// Below this many primitives a subtree is built serially: a task costs more than it saves.
 const SERIAL_BELOW: usize = 4096;
 
-/// Builds like [`super::build::build_nodes`], splitting the top of the tree serially and
+/// Builds like [`super::top_down::build_nodes`], splitting the top of the tree serially and
 /// handing the two halves of every large node to `rayon::join`. The result is the tree the
 /// serial build makes (same splits, same leaves), laid out in another node order.
 ///
 /// PLOC and LBVH are built serially: PLOC's iterations are sequential scans, and this crate's
 /// version is the single-threaded one; LBVH is a sort and two linear passes.
-pub(super) fn build_nodes_parallel(
+pub(in crate::bvh) fn build_nodes_parallel(
     bounds: &[Aabb],
     config: &BuildConfig,
 ) -> (Vec<BvhNode>, Vec<u32>) {
     if let SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh = config.split {
-        return super::build::build_nodes(bounds, config);
+        return super::top_down::build_nodes(bounds, config);
     }
     let (mut prims, bounds) = collect_prims(bounds);
     if prims.is_empty() {

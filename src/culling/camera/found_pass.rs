@@ -1,13 +1,13 @@
 //! Deciding the entities a view's tree walk found: straight from Bevy's table columns, and
 //! spread over the compute task pool when they are many.
 
-use super::class_lists::ClassLists;
-use super::slot_order::{LOOKUP_AHEAD, SlotKey, prefetch_entry};
-use super::system::ViewFilter;
 use super::table_rows::{
     BoundsColumns, DecideColumns, DecideTally, ExactTest, FoundEntity, SlotRows,
 };
 use super::tree_pass::ViewPass;
+use crate::culling::bevy_tests::ViewFilter;
+use crate::culling::class_lists::ClassLists;
+use crate::culling::slot_order::{LOOKUP_AHEAD, SlotKey, prefetch_entry};
 use bevy::camera::visibility::SetViewVisibility;
 use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
@@ -28,7 +28,7 @@ const ROWS_AHEAD: usize = 16;
 /// decided.
 pub(crate) struct FreshFinds<'a> {
     /// The walk's finds, in slot order
-    /// ([`FoundSlots::sorted_keys`](super::slot_order::FoundSlots::sorted_keys)).
+    /// ([`FoundSlots::sorted_keys`](crate::culling::slot_order::FoundSlots::sorted_keys)).
     pub(crate) keys: &'a [SlotKey],
     /// [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
     pub(crate) slot_entities: &'a [Option<Entity>],
@@ -105,8 +105,8 @@ struct Decider<'a, 'q> {
 /// memory (rows of a few columns for each entity, and for fresh finds each slot's entity and
 /// row hint), and how many misses a core keeps in flight is bounded by its fill buffers; two
 /// cores keep twice as many, as Bevy's own culling loop uses the pool. At 1M entities with 5%
-/// in view this took the still view from 3.4-4.0 ms to 1.9-2.6 ms on a 2-core machine, when
-/// decisions still went through entity lookups (BENCHMARKS.md).
+/// in view this took the still view from about 6x Bevy's speed to about 10x on a 2-core
+/// machine, when decisions still went through entity lookups (docs/experiments.md, Culling).
 fn decide_list(
     decider: Decider<'_, '_>,
     list: &mut [FoundEntity],

@@ -1,7 +1,7 @@
 //! Splits that look only at centroid positions: spatial midpoint and object median.
 
-use super::build::{BuildPrim, SplitOutcome};
 use super::partition::partition;
+use super::top_down::{BuildPrim, SplitOutcome};
 use crate::Aabb;
 
 /// Midpoint of the centroid bounds on their longest axis; the object median when rounding

@@ -1,14 +1,14 @@
 //! Binned SAH (Wald 2007): the best of `bins - 1` candidate planes per axis, in two passes.
 
 #[cfg(target_arch = "x86_64")]
-use super::binning_avx2;
-use super::build::{BuildPrim, NodeBounds, SplitOutcome, centroid, leaf_is_cheaper};
-use super::config::BuildConfig;
+use super::binned_avx2;
+use super::exhaustive;
 use super::partition::partition;
-use super::split_exhaustive;
 #[cfg(target_arch = "x86_64")]
-use super::split_sorted;
+use super::sorted;
+use super::top_down::{BuildPrim, NodeBounds, SplitOutcome, centroid, leaf_is_cheaper};
 use crate::Aabb;
+use crate::bvh::config::BuildConfig;
 use glam::{BVec3A, Vec3A};
 
 /// The most bins a build may ask for (the bin arrays live on the stack).
@@ -32,19 +32,19 @@ pub(super) fn split(
     if may_stop && config.sah.intersection * prims.len() as f32 <= config.sah.traversal {
         return SplitOutcome::Leaf;
     }
-    // Tiny nodes: every partition costs less to try than the bins (see `split_exhaustive`).
-    if prims.len() <= split_exhaustive::MAX_PRIMS {
-        return split_exhaustive::split(prims, node_bounds, config, may_stop);
+    // Tiny nodes: every partition costs less to try than the bins (see `exhaustive`).
+    if prims.len() <= exhaustive::MAX_PRIMS {
+        return exhaustive::split(prims, node_bounds, config, may_stop);
     }
     // Corners of at most half the largest float add without overflow, which lets the binning
     // work on `lo + hi` (see `BinMap`); beyond that, the clamped centroid of `centroid`.
     let half_max = Vec3A::splat(f32::MAX / 2.0);
     let sums_finite =
         node_bounds.min.abs().cmple(half_max).all() && node_bounds.max.abs().cmple(half_max).all();
-    // Small nodes: every plane, in the lanes of one register (see `split_sorted`).
+    // Small nodes: every plane, in the lanes of one register (see `sorted`).
     #[cfg(target_arch = "x86_64")]
-    if sums_finite && prims.len() <= split_sorted::MAX_PRIMS && split_sorted::available() {
-        return split_sorted::split(prims, node_bounds, config, may_stop);
+    if sums_finite && prims.len() <= sorted::MAX_PRIMS && sorted::available() {
+        return sorted::split(prims, node_bounds, config, may_stop);
     }
     // Only as many bins as there are primitives can be non-empty. Most nodes of a tree are
     // small, and clearing 3 x 64 bin boxes for each would cost more than binning its
@@ -142,8 +142,9 @@ impl<const SUMS: bool> BinMap<SUMS> {
 /// Why: the top levels of a large build stream every primitive through the binning once per
 /// level, only to choose one of `3 (bins - 1)` planes. Binning already evaluates the cost on
 /// a coarse set of planes; the counts and boxes of a thousand stratified samples estimate it
-/// nearly as well on a large node. Measured on a million triangles: a sixth off the build,
-/// SAH cost 0.3% higher; 100k entity boxes: a tenth off, 0.1% higher (`BENCHMARKS.md`).
+/// nearly as well on a large node: builds of a million triangles and of 100k entity boxes
+/// got faster for an SAH cost a few tenths of a percent higher (docs/experiments.md, Static
+/// BVH builds).
 const SAMPLE_FROM: usize = 8192;
 
 /// Primitives binned in a sampled node.
@@ -171,10 +172,10 @@ fn split_with<const B: usize, const SUMS: bool>(
     } else {
         1
     };
-    // Where the CPU has AVX2, both passes in wide registers (see `binning_avx2`): the same
-    // decision, 9-17% off a million-triangle build (BENCHMARKS.md).
+    // Where the CPU has AVX2, both passes in wide registers (see `binned_avx2`): the same
+    // decision, a faster build (docs/experiments.md, Static BVH builds).
     #[cfg(target_arch = "x86_64")]
-    let found = if SUMS && stride == 1 && (B == 8 || B == 16) && binning_avx2::available() {
+    let found = if SUMS && stride == 1 && (B == 8 || B == 16) && binned_avx2::available() {
         wide_plane::<B, SUMS>(prims, &map)
     } else {
         portable_plane::<B, SUMS>(prims, &map, bins, stride)
@@ -206,7 +207,7 @@ pub(super) struct BinnedPlane {
     pub sides: [Aabb; 2],
 }
 
-/// [`binning_avx2::split_plane`] for `B` bins (8 or 16); only where it is available.
+/// [`binned_avx2::split_plane`] for `B` bins (8 or 16); only where it is available.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn wide_plane<const B: usize, const SUMS: bool>(
@@ -215,9 +216,9 @@ fn wide_plane<const B: usize, const SUMS: bool>(
 ) -> BinnedPlane {
     let (origin, scale, last) = (map.origin, map.scale, map.last);
     if B == 8 {
-        binning_avx2::split_plane::<8>(prims, origin, scale, last)
+        binned_avx2::split_plane::<8>(prims, origin, scale, last)
     } else {
-        binning_avx2::split_plane::<16>(prims, origin, scale, last)
+        binned_avx2::split_plane::<16>(prims, origin, scale, last)
     }
 }
 
@@ -365,7 +366,8 @@ fn split_at_plane<const SUMS: bool>(
 ///
 /// Why not the exact bounds: the partition tracked them, four vector selects and four min/max
 /// per primitive and level. These bounds are never tighter, so the next level's bins are a
-/// little wider: SAH cost from -0.1% to +0.5% on the benchmark scenes, for 6% off a build.
+/// little wider: SAH cost within half a percent either way on the benchmark scenes, for a
+/// faster build (docs/experiments.md, Static BVH builds).
 /// They are conservative, so coincident centroids still find no plane that separates them
 /// (their bins cannot), and the split by count still applies.
 #[inline(always)]
@@ -418,8 +420,8 @@ fn bin_indices(coordinates: Vec3A) -> [u32; 3] {
 
 #[cfg(test)]
 mod tests {
+    use super::super::top_down;
     use super::*;
-    use crate::bvh::build;
 
     /// Boxes for the wide binning's checks: `n` of them, random, sometimes flat, with copies
     /// (equal centroids), on one plane of x, far from the origin, or huge (corners near a
@@ -459,13 +461,13 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn wide_split_matches_the_portable_passes() {
-        if !binning_avx2::available() {
+        if !binned_avx2::available() {
             return;
         }
         let mut next = crate::test_floats(0x51f1_5e2d_0c4b_8a97);
         for trial in 0..3000 {
             let n = 9 + (trial * 37) % 292;
-            let prims = build::records_of(&varied_node(&mut next, trial, n));
+            let prims = top_down::records_of(&varied_node(&mut next, trial, n));
             let bounds = NodeBounds::of(&prims);
             for bins in [3usize, 8, 11, 16] {
                 let map = BinMap::<true>::new(&bounds.centroids, bins);
@@ -514,7 +516,7 @@ mod tests {
                     *b = Aabb::new(c - 30.0, c + 30.0);
                 }
             }
-            let mut prims = build::records_of(&boxes);
+            let mut prims = top_down::records_of(&boxes);
             let bounds = NodeBounds::of(&prims);
             let map = BinMap::<true>::new(&bounds.centroids, 16);
             let plane = portable_plane::<16, true>(&prims, &map, 16, 1);
@@ -526,7 +528,7 @@ mod tests {
                 &config,
                 true,
             );
-            let leaf_wins = build::leaf_wins_by_sah(&config, n, plane.cost, &bounds.node);
+            let leaf_wins = top_down::leaf_wins_by_sah(&config, n, plane.cost, &bounds.node);
             match outcome {
                 SplitOutcome::Leaf => {
                     assert!(leaf_wins, "trial {trial}: a leaf where a split pays");

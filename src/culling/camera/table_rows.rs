@@ -1,10 +1,10 @@
 //! Deciding entities straight from the columns of Bevy's tables, reached through the row each
 //! entity was last seen in instead of an entity lookup.
 
-use super::class_lists::ClassLists;
-use super::slot_order::prefetch_entry;
-use super::system::{ViewFilter, bevy_frustum_test};
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem};
+use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use crate::culling::class_lists::ClassLists;
+use crate::culling::slot_order::prefetch_entry;
 use crate::prefetch::{prefetch, prefetch_ptr};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, SetViewVisibility, VisibilityClass};
@@ -421,10 +421,10 @@ impl<'q> BoundsColumns<'q> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::tree_pass::{BoundsItem, DecideFilter, DecideItem};
     use super::{DecideColumns, DecideTally, ExactTest, FoundEntity, RowHint};
+    use crate::culling::bevy_tests::ViewFilter;
     use crate::culling::class_lists::ClassLists;
-    use crate::culling::system::ViewFilter;
-    use crate::culling::tree_pass::{BoundsItem, DecideFilter, DecideItem};
     use bevy::camera::primitives::Frustum;
     use bevy::camera::visibility::{NoCpuCulling, NoFrustumCulling, RenderLayers};
     use bevy::ecs::entity::Entities;

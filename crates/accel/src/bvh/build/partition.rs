@@ -1,7 +1,7 @@
 //! Partitioning a build's primitives around a split plane: a block partition, with a
 //! branch-free Lomuto pass for the tail.
 
-use super::build::BuildPrim;
+use super::top_down::BuildPrim;
 
 /// Elements classified at a time by each end of [`partition`] (offsets fit a byte).
 const PARTITION_BLOCK: usize = 64;
@@ -18,7 +18,8 @@ const PARTITION_BLOCK: usize = 64;
 /// most of a tree's nodes) goes through Lomuto's scheme without a branch: every element is
 /// swapped with the next left slot, and the slot advances when the element belongs left. Why:
 /// Hoare's loop in this place branched on every element's side, and those mispredictions cost
-/// a fifth of a binned SAH build (1M triangles 1.25x and 100k boxes 1.3x faster without it).
+/// about a fifth of a binned SAH build, over a million triangles and over 100k boxes alike
+/// (docs/experiments.md, Static BVH builds).
 pub(super) fn partition(
     prims: &mut [BuildPrim],
     mut goes_left: impl FnMut(&BuildPrim) -> bool,

@@ -1,11 +1,11 @@
 //! The tree PLOC builds, as merge records: the stopping rules that collapse it into leaves, and
 //! its layout into the builder's node array.
 
-use super::build::{BuildPrim, build_subtree, first_node_reservation};
-use super::config::{BuildConfig, SplitStrategy};
-use super::node::BvhNode;
 use super::ploc::{Cluster, CurveBoxes, GATHER_AHEAD};
+use super::top_down::{BuildPrim, build_subtree, first_node_reservation};
 use crate::Aabb;
+use crate::bvh::config::{BuildConfig, SplitStrategy};
+use crate::bvh::node::BvhNode;
 use glam::Vec3A;
 
 /// One merge: the box of the new subtree and its two children (node ids: below `n` a sorted

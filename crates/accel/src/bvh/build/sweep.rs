@@ -1,8 +1,8 @@
 //! Full-sweep SAH: every split between consecutive sorted centroids, on every axis.
 
-use super::build::{BuildPrim, SplitOutcome, leaf_is_cheaper};
-use super::config::BuildConfig;
+use super::top_down::{BuildPrim, SplitOutcome, leaf_is_cheaper};
 use crate::Aabb;
+use crate::bvh::config::BuildConfig;
 
 /// Sorts by centroid on each axis and evaluates all `n - 1` splits; the quality reference the
 /// binned builder is measured against.

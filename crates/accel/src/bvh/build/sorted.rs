@@ -2,24 +2,24 @@
 //! two consecutive centroids, costed from sorted prefix and suffix boxes (sweep SAH,
 //! MacDonald & Booth 1990), all eight lanes at once.
 //!
-//! Why: nodes of 5 to 8 primitives are a quarter of a binned build's splits and took 15% of
-//! its time on a million triangles, 530 cycles each, more than their primitives: clearing three
-//! rows of bins, sweeping 3 x (n - 1) planes one box at a time. With AVX2, a node's eight
-//! centroids sort in six compare-exchange steps of one register, and every plane's left and
-//! right box comes out of three shift-and-`min` steps: 418 cycles a split, 7-8% off the whole
-//! build (`BENCHMARKS.md`). The split found is also the best plane of all, where the bins see
+//! Why: nodes of 5 to 8 primitives are a quarter of a binned build's splits, and their bins
+//! cost more than their primitives: clearing three rows of bins, sweeping 3 x (n - 1) planes
+//! one box at a time. With AVX2, a node's eight centroids sort in six compare-exchange steps
+//! of one register, and every plane's left and right box comes out of three shift-and-`min`
+//! steps: cheaper per split, and a whole build faster (docs/experiments.md, Static BVH
+//! builds). The split found is also the best plane of all, where the bins see
 //! only theirs (SAH cost 500.47 -> 499.26 on the bench's million triangles).
 //!
 //! Only where the CPU has AVX2 ([`available`]); elsewhere nodes of 5 to 8 primitives keep
 //! their bins. The portable version of the same sweep (a sort, then a plane at a time)
-//! measured 10-20% slower for a whole build than the bins, so it is only the definition the
+//! measured slower for a whole build than the bins, so it is only the definition the
 //! AVX2 code is tested against (`sweep_axis_portable`). Trees built on a CPU without AVX2 can
 //! therefore differ from those built with it; both are valid, and the queries' results are
 //! the same.
 
-use super::build::{BuildPrim, SplitOutcome, leaf_is_cheaper};
-use super::config::BuildConfig;
+use super::top_down::{BuildPrim, SplitOutcome, leaf_is_cheaper};
 use crate::Aabb;
+use crate::bvh::config::BuildConfig;
 
 /// The fewest primitives a node may have for [`split`] (smaller ones are split exhaustively).
 pub(super) const MIN_PRIMS: usize = 5;
@@ -55,7 +55,7 @@ pub(super) fn split(
 ) -> SplitOutcome {
     let n = prims.len();
     debug_assert!((MIN_PRIMS..=MAX_PRIMS).contains(&n));
-    assert!(available(), "split_sorted::split needs AVX2");
+    assert!(available(), "sorted::split needs AVX2");
     // SAFETY: the CPU has AVX2.
     let best = unsafe { best_plane_avx2(prims) };
     if best.cost == f32::INFINITY {
@@ -123,7 +123,7 @@ fn sweep_axis_portable(records: &[BuildPrim; MAX_PRIMS], n: usize, axis: usize) 
 use avx2::best_plane_avx2;
 
 mod avx2 {
-    use super::super::binning_avx2::{broadcast_min, transpose};
+    use super::super::binned_avx2::{broadcast_min, transpose};
     use super::{AxisPlane, BuildPrim, MAX_PRIMS};
     use core::arch::x86_64::{
         __m256, __m256i, _CMP_EQ_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ, _mm256_add_ps, _mm256_and_ps,
@@ -340,8 +340,8 @@ mod avx2 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::top_down::{NodeBounds, check_small_split, leaf_wins_by_sah, records_of};
     use super::*;
-    use crate::bvh::build::{NodeBounds, check_small_split, leaf_wins_by_sah, records_of};
     use glam::Vec3A;
 
     /// Nodes of 5 to 8 boxes: random, with copies (equal centroids, ties between planes),

@@ -7,7 +7,7 @@
 //! primitive and the id rides along in the low bits without being sorted: LSD radix sorting is
 //! stable, so equal codes keep id order and the result is deterministic.
 
-use super::build::centroid;
+use super::top_down::centroid;
 use crate::Aabb;
 use glam::Vec3A;
 use std::ops::Range;

@@ -10,13 +10,13 @@
 //! than the last percent of query speed (a level's static tree after an edit, a dynamic tree's
 //! periodic rebuild).
 
-use super::build::fitted_box;
 use super::morton::sorted_keys;
-use super::{BuildConfig, BvhNode};
+use super::top_down::fitted_box;
 use crate::Aabb;
+use crate::bvh::{BuildConfig, BvhNode};
 
 /// Builds the tree over the valid boxes of `bounds`: the same output as
-/// [`super::build::build_nodes`] (node 0 the root, children after their parent as adjacent
+/// [`super::top_down::build_nodes`] (node 0 the root, children after their parent as adjacent
 /// pairs, leaves as contiguous ranges of the returned primitive order, invalid boxes left
 /// out).
 ///

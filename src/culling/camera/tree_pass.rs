@@ -1,9 +1,9 @@
 //! The queries that decide a view's entities, and deciding one entity through them: Bevy's
 //! per-entity rules, with its frustum test.
 
-use super::class_lists::ClassLists;
-use super::system::{ViewFilter, bevy_frustum_test};
-use crate::culling::system::CullingStats;
+use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use crate::culling::class_lists::ClassLists;
+use crate::culling::stats::CullingStats;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,

@@ -9,14 +9,14 @@
 //! whose boundary crosses its leaf get Bevy's test.
 //!
 //! Both light passes use it. The tree path keeps the masks with each candidate the walk
-//! found ([`super::light_walks::LightCandidates`]); a view decided by the flat loop over every
+//! found ([`super::walks::LightCandidates`]); a view decided by the flat loop over every
 //! caster (it reaches most of the world) keeps them per tree slot ([`LightVerdicts`]), and a
 //! caster no list reached is then dropped after one read, as in the camera flat pass
-//! ([`super::flat_pass::TreeVerdicts`]).
+//! (`TreeVerdicts`, in `camera/flat_pass`).
 
-use super::bevy_rounding::grown_past_rounding;
-use super::light_views::CasterTest;
-use super::light_walks::{ViewKey, light_sphere_may_reach, walk_shape};
+use super::views::CasterTest;
+use super::walks::{ViewKey, light_sphere_may_reach, walk_shape};
+use crate::culling::bevy_rounding::grown_past_rounding;
 use crate::trees::AccelTrees;
 use accel::SpatialQuery;
 use accel::query::views::{ViewClassification, ViewMasks};
@@ -103,7 +103,7 @@ pub(super) fn walk_lists(
 pub(super) struct LightLists<'a> {
     /// The light's range (point and spot lights; `None` for cascades).
     pub(super) sphere: Option<&'a Sphere>,
-    /// Each list's frustum, as the trees test it ([`super::light_walks::light_planes`]: a
+    /// Each list's frustum, as the trees test it ([`super::walks::light_planes`]: a
     /// half-space Bevy's test cannot reject by holds all space, so a box inside every plane
     /// passes Bevy's test).
     pub(super) planes: &'a [[Vec4; 6]],
@@ -133,10 +133,10 @@ fn classify_for_lists(
     let in_range = lists.sphere.is_none_or(|s| surely_within_range(s, &grown));
     if !in_range && lists.cover_every_direction {
         // Across the range's boundary a cube's six faces prune no subtree and cannot hold a
-        // box (that needs the range), yet classifying them costs six frustum tests per node:
-        // moving point lights measured up to twice as slow with it. They are classified once
-        // in range; boxes that never get there keep every face undecided and get Bevy's full
-        // tests. (A spot light's frustum does prune, so it is classified everywhere.)
+        // box (that needs the range), yet classifying them costs six frustum tests per node,
+        // which made moving point lights much slower (docs/experiments.md, Light culling).
+        // They are classified once in range; boxes that never get there keep every face
+        // undecided and get Bevy's full tests. (A spot light's frustum does prune, so it is classified everywhere.)
         return c;
     }
     let mut todo = undecided;

@@ -8,13 +8,13 @@
 //! both); an axis's prefix and suffix boxes are built a row at a time and transposed into
 //! planes of eight bins, whose areas and costs are then computed eight planes at a time.
 //!
-//! The decisions are those of the portable passes in `split_binned`, bit for bit: the same
+//! The decisions are those of the portable passes in `binned`, bit for bit: the same
 //! bins (a union does not depend on order), the same areas and costs by the same operations
 //! in the same order, the first least cost in the same order of axes and planes (checked by
 //! `wide_split_matches_the_portable_passes` there).
 
-use super::build::BuildPrim;
-use super::split_binned::BinnedPlane;
+use super::binned::BinnedPlane;
+use super::top_down::BuildPrim;
 use crate::Aabb;
 use core::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _mm_add_ps, _mm_cvtsi128_si32, _mm_cvttps_epi32,
@@ -38,7 +38,7 @@ pub(super) fn available() -> bool {
 /// Bins every primitive of `prims` into `B` bins per axis (8 or 16) by its corner sum
 /// `lo + hi`, at bin coordinate `((lo + hi) - origin) * scale` clamped to `0..=last`, and
 /// sweeps the bins for the cheapest plane (the `BinMap` with corner sums and the sweep of
-/// `split_binned`). Only where [`available`].
+/// `binned`). Only where [`available`].
 pub(super) fn split_plane<const B: usize>(
     prims: &[BuildPrim],
     origin: Vec3A,
@@ -46,7 +46,7 @@ pub(super) fn split_plane<const B: usize>(
     last: Vec3A,
 ) -> BinnedPlane {
     const { assert!(B == 8 || B == 16, "eight or sixteen bins") };
-    assert!(available(), "binning_avx2 needs AVX2");
+    assert!(available(), "binned_avx2 needs AVX2");
     // SAFETY: the CPU has AVX2.
     unsafe { bin_and_sweep::<B>(prims, origin, scale, last) }
 }

@@ -1,106 +1,31 @@
-//! The culling system: trees for the entities they hold, Bevy's tests for the rest.
+//! The camera culling system: trees for the entities they hold, Bevy's tests for the rest.
 
-use super::bevy_rounding::walk_frustum_for_bevy;
-use super::class_lists::{ClassLists, sort_visible};
 use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
 use super::found_pass::{FreshFinds, decide_found};
-use super::slot_order::FoundSlots;
 use super::table_rows::SlotRows;
 use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
-use super::untracked::UntrackedEntities;
 use super::view_walk::{ViewWalk, WalkForm};
+use crate::culling::bevy_rounding::{tree_plane, walk_frustum_for_bevy};
+use crate::culling::bevy_tests::ViewFilter;
+use crate::culling::class_lists::{ClassLists, sort_visible};
+use crate::culling::slot_order::FoundSlots;
+use crate::culling::stats::CullingStats;
+use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
 use accel::{Containment, Frustum as AccelFrustum};
-use bevy::camera::primitives::{Aabb, Frustum, Sphere};
+use bevy::camera::primitives::Frustum;
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, VisibleEntities, VisibleEntityRanges};
-use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
 use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
 use bevy::prelude::*;
 use bevy::utils::Parallel;
-use core::time::Duration;
 use std::time::Instant;
 
-/// What the last culling pass did, summed over views. Also published as Bevy diagnostics
-/// ([`CullingStats::TIME`], [`CullingStats::LIGHT_TIME`], [`CullingStats::VISIBLE`]).
-#[derive(Resource, Clone, Debug, Default)]
-pub struct CullingStats {
-    /// Views culled.
-    pub views: usize,
-    /// Entities reported visible (per view, summed).
-    pub visible: usize,
-    /// Entities accepted whole, inside a subtree fully in view, with no per-entity test (on
-    /// the tree path, and on the flat pass when the trees settled their tests).
-    pub accepted_by_subtree: usize,
-    /// Entities given Bevy's frustum test one by one (leaves crossing a plane, and entities
-    /// not in the trees; on a flat pass without the trees' word, every entity admitted).
-    pub tested: usize,
-    /// Views culled with the flat parallel pass instead of the trees (most of the world was
-    /// in view last frame).
-    pub flat_views: usize,
-    /// Of the flat views, those whose frustum tests the trees settled wherever they could
-    /// (the trees were current): only entities crossing a plane, or outside the trees, got
-    /// Bevy's test.
-    pub flat_views_on_trees: usize,
-    /// Views whose tree walk was reused from the last frame, because neither their frustum
-    /// nor the trees had changed (the entities found are still decided one by one).
-    pub reused_walks: usize,
-    /// Views on the tree path whose entities proved inside were many enough to be decided in
-    /// parts on the compute task pool.
-    pub views_decided_in_parts: usize,
-    /// Time spent in the camera culling system.
-    pub time: Duration,
-    /// Shadow views of lights culled on the trees (point light cube faces, spot light
-    /// frusta, directional light cascades per camera); cargo feature `light_culling`.
-    pub light_views: usize,
-    /// Entities decided one by one for those views on the tree path: what their walks found,
-    /// plus the entities no walk finds (views on the flat pass are not counted).
-    pub light_candidates: usize,
-    /// Light views decided by the flat parallel pass over every caster (their walk found
-    /// most of the world, or the trees were stale).
-    pub flat_light_views: usize,
-    /// Of the flat light views, those whose caster tests the trees settled wherever they
-    /// could (the trees were current): a caster no list of the view reached is dropped
-    /// untested, one inside a list's frustum and the light's range goes into that list
-    /// untested, and only lists crossing its leaf get Bevy's tests.
-    pub flat_light_views_on_trees: usize,
-    /// Light views whose walk was kept from the last frame (neither the view nor the trees
-    /// changed); their entities are still decided one by one.
-    pub reused_light_walks: usize,
-    /// Time spent culling light views.
-    pub light_time: Duration,
-}
-
-impl CullingStats {
-    /// Camera culling time, in milliseconds.
-    pub const TIME: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/culling_time_ms");
-    /// Light-view culling time, in milliseconds (cargo feature `light_culling`).
-    pub const LIGHT_TIME: DiagnosticPath =
-        DiagnosticPath::const_new("bevy_accel/light_culling_time_ms");
-    /// Entities visible in the camera views, summed over views.
-    pub const VISIBLE: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/culling_visible");
-
-    pub(crate) fn register(app: &mut App) {
-        for path in [Self::TIME, Self::LIGHT_TIME, Self::VISIBLE] {
-            app.register_diagnostic(Diagnostic::new(path));
-        }
-    }
-}
-
-/// Copies the last frame's culling figures into Bevy's diagnostics.
-pub(crate) fn publish_culling_stats(stats: Res<CullingStats>, mut diagnostics: Diagnostics) {
-    let s = &*stats;
-    diagnostics.add_measurement(&CullingStats::TIME, || s.time.as_secs_f64() * 1e3);
-    diagnostics.add_measurement(&CullingStats::LIGHT_TIME, || {
-        s.light_time.as_secs_f64() * 1e3
-    });
-    diagnostics.add_measurement(&CullingStats::VISIBLE, || s.visible as f64);
-}
-
 /// Above this fraction of entities visible (in the view's previous frame), a flat
-/// pass over all entities beats the tree: a tree hit costs an entity lookup, about 2x (at
-/// first 2.5x) what the linear scan spends per entity, so the crossover sits near 20-50%
-/// (measured in `benches/culling.rs`; the lower end is kept, where both cost about the same).
+/// pass over all entities beats the tree: a tree hit costs an entity lookup, about twice
+/// what the linear scan spends per entity, so the crossover sits near 20-50% (measured in
+/// `benches/culling.rs`: docs/experiments.md, Culling; the lower end is kept, where both cost
+/// about the same).
 const FLAT_PASS_ABOVE: f32 = 0.2;
 
 type ViewItem = (
@@ -123,25 +48,6 @@ type CandidateQueries<'w, 's> = ParamSet<
         Query<'static, 'static, DecideItem, DecideFilter>,
     ),
 >;
-
-/// A half-space of a Bevy frustum as the trees must test it to keep every entity Bevy's
-/// oriented-box test keeps. Bevy calls a box outside when `normal_d . (center, 1) + r <= 0`:
-/// - with a zero normal (an unset `Frustum`, before a camera's first update) `r` is 0, so
-///   every box is outside unless `d > 0`; the trees' plane type would keep everything;
-/// - with a NaN or infinite normal the comparison is false or undefined: nothing may be
-///   dropped, so such a half-space holds all space.
-pub(crate) fn tree_plane(v: Vec4) -> Vec4 {
-    const ALL_SPACE: Vec4 = Vec4::new(0.0, 0.0, 0.0, 1.0);
-    const NO_SPACE: Vec4 = Vec4::new(0.0, 0.0, 0.0, -1.0);
-    let normal = v.truncate();
-    if !normal.is_finite() || v.w.is_nan() {
-        ALL_SPACE
-    } else if normal == bevy::math::Vec3::ZERO {
-        if v.w > 0.0 { ALL_SPACE } else { NO_SPACE }
-    } else {
-        v
-    }
-}
 
 /// The view frustum's planes as the trees test them. Bevy culls against the near plane but
 /// never the far one, so the far half-space is replaced by one containing all space.
@@ -321,76 +227,4 @@ pub(crate) fn cull_views_with_trees(
     walks.retain(|view, _| views.contains(*view));
     s.time = start.elapsed();
     *stats = s;
-}
-
-/// The per-entity rules Bevy applies before any frustum test: the entity is visible in the
-/// hierarchy, shares a render layer with the view, and is within its visibility range. Every
-/// culling path (flat, tree, light views) asks it, so they cannot drift apart.
-#[derive(Clone, Copy)]
-pub(crate) struct ViewFilter<'a> {
-    /// The view whose distance decides visibility ranges. `None` hides every entity that has
-    /// a range, as Bevy's point and spot light pass does when no view can be the shadow LOD
-    /// origin.
-    pub(crate) view: Option<Entity>,
-    pub(crate) mask: &'a RenderLayers,
-    pub(crate) ranges: Option<&'a VisibleEntityRanges>,
-}
-
-impl ViewFilter<'_> {
-    #[inline]
-    pub(crate) fn admits(
-        &self,
-        entity: Entity,
-        inherited: &InheritedVisibility,
-        layers: Option<&RenderLayers>,
-        has_range: bool,
-    ) -> bool {
-        inherited.get() && self.admits_in_layers(entity, self.in_layers(layers), has_range)
-    }
-
-    /// Whether the view sees `layers` (an entity without `RenderLayers` is on layer 0).
-    #[inline]
-    pub(crate) fn in_layers(&self, layers: Option<&RenderLayers>) -> bool {
-        self.mask.intersects(layers.unwrap_or_default())
-    }
-
-    /// [`Self::admits`] for an entity visible in the hierarchy, with [`Self::in_layers`]
-    /// already answered (it is the same for every entity of a table without `RenderLayers`).
-    #[inline]
-    pub(crate) fn admits_in_layers(
-        &self,
-        entity: Entity,
-        in_layers: bool,
-        has_range: bool,
-    ) -> bool {
-        in_layers
-            && !(has_range
-                && self.ranges.is_some_and(|r| {
-                    self.view
-                        .is_none_or(|view| !r.entity_is_in_range_of_view(entity, view))
-                }))
-    }
-}
-
-/// Bevy's own per-entity test: a bounding sphere first, then the oriented box, near plane
-/// included and far plane excluded; entities with neither `Aabb` nor `Sphere` pass.
-pub(crate) fn bevy_frustum_test(
-    frustum: &Frustum,
-    aabb: Option<&Aabb>,
-    sphere: Option<&Sphere>,
-    transform: &GlobalTransform,
-) -> bool {
-    if let Some(aabb) = aabb {
-        let world_from_local = transform.affine();
-        let model_sphere = Sphere {
-            center: world_from_local.transform_point3a(aabb.center),
-            radius: transform.radius_vec3a(aabb.half_extents),
-        };
-        frustum.intersects_sphere(&model_sphere, false)
-            && frustum.intersects_obb(aabb, &world_from_local, true, false)
-    } else if let Some(sphere) = sphere {
-        frustum.intersects_sphere(sphere, false)
-    } else {
-        true
-    }
 }

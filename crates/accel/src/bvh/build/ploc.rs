@@ -12,15 +12,15 @@
 //! ([`super::ploc_tree`]) lays the tree out in the builder's format (children after their
 //! parent, leaves as contiguous ranges of the primitive order).
 
-use super::config::{BuildConfig, SplitStrategy};
 use super::morton::sorted_keys;
-use super::node::BvhNode;
 use super::ploc_search::Search;
 use super::ploc_tree::{
     COLLAPSED, Collapse, Merge, SubtreeCost, collapse_moved, layout_within_depth,
 };
 use super::reinsert::Tree;
 use crate::Aabb;
+use crate::bvh::config::{BuildConfig, SplitStrategy};
+use crate::bvh::node::BvhNode;
 
 /// The largest search radius; larger requests are clamped.
 pub const MAX_SEARCH_RADIUS: u32 = 64;
@@ -154,7 +154,7 @@ impl Merger<'_> {
 }
 
 /// Builds the tree over the valid boxes of `bounds` with PLOC: the same output as
-/// [`super::build::build_nodes`] (node 0 the root, children after their parent, leaves as
+/// [`super::top_down::build_nodes`] (node 0 the root, children after their parent, leaves as
 /// contiguous ranges of the returned primitive order, invalid boxes left out).
 pub(super) fn build_nodes(
     bounds: &[Aabb],
@@ -170,7 +170,7 @@ pub(super) fn build_nodes(
             split: SplitStrategy::BinnedSah { bins: 16 },
             ..*config
         };
-        return super::build::build_nodes(bounds, &top_down);
+        return super::top_down::build_nodes(bounds, &top_down);
     }
     let order: Vec<u32> = keys.iter().map(|&k| layout.id(k)).collect();
     drop(keys);
@@ -233,7 +233,8 @@ impl Clusters {
 /// Clustering works in place on one gathered copy, which merges overwrite; what needs a
 /// primitive's box afterwards (the layout's single-primitive leaves, the collapse and
 /// reinsertion) reads it here. A second, kept copy would be 32 bytes a primitive of fresh
-/// memory every build, and on this VM fresh memory costs about 2 us a 4 KB page.
+/// memory every build, and fresh memory is dear: each 4 KB page is a fault
+/// (docs/experiments.md, Static BVH builds).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct CurveBoxes<'a> {
     bounds: &'a [Aabb],
@@ -288,7 +289,8 @@ fn cluster(
         return merges;
     }
     // The boxes are read in curve order, each at a random place: asking for the one
-    // `GATHER_AHEAD` places on overlaps the cache misses (1M triangles: 16.8 -> 6.2 ms).
+    // `GATHER_AHEAD` places on overlaps the cache misses (the gather took about a third of
+    // its time after: docs/experiments.md, Static BVH builds).
     let cl: Vec<Cluster> = (0..n as u32)
         .map(|slot| {
             prims.prefetch(slot + GATHER_AHEAD);
@@ -413,7 +415,7 @@ pub(super) mod tests {
     use super::*;
     use glam::Vec3A;
 
-    pub(in crate::bvh) fn clusters_of(boxes: &[Aabb]) -> Clusters {
+    pub(in crate::bvh::build) fn clusters_of(boxes: &[Aabb]) -> Clusters {
         let cl: Vec<Cluster> = (0..boxes.len())
             .map(|i| Cluster::leaf(&boxes[i], i as u32))
             .collect();
@@ -429,7 +431,7 @@ pub(super) mod tests {
     };
 
     /// Boxes on a coarse grid of sizes, so that equal union areas are frequent.
-    pub(in crate::bvh) fn coarse_boxes(n: usize, seed: u32) -> Vec<Aabb> {
+    pub(in crate::bvh::build) fn coarse_boxes(n: usize, seed: u32) -> Vec<Aabb> {
         let mut state = seed;
         let mut next = || {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);

@@ -5,17 +5,16 @@
 //! location record, its `Mesh3d` row and its visibility rows before its mesh BVH could be
 //! walked, and half of those walks miss. Perf on the picking bench put those reads at
 //! two-thirds of a candidate's time (slot record 24%, entity record 23%, `Mesh3d` row 21%);
-//! with the mesh found by slot, the walks that miss cost no ECS read at all, and at 100k
-//! entities rays through the ECS took 1.15-1.23x the time of rays through the table, paired
-//! (BENCHMARKS.md).
+//! with the mesh found by slot, the walks that miss cost no ECS read at all, and rays run
+//! measurably faster through the table than through the ECS (docs/experiments.md, Picking).
 //!
 //! The price is upkeep: Bevy has no hook on a mutated `Mesh3d`, so the table is kept current
-//! by a `Changed` scan over every mesh entity each frame (about 85 us at 100k entities here).
+//! by a `Changed` scan over every mesh entity each frame (its cost: docs/experiments.md,
+//! Picking).
 //! That pays only when rays are many, so by default the table is kept only while rays per
 //! frame outnumber the entities by a set ratio ([`SlotMeshTableMode::Auto`]).
 
-use super::mesh_cache::{AccelMeshCache, MeshShape};
-use super::ray_cast::ray_cast_mesh;
+use super::cache::{AccelMeshCache, MeshShape};
 use crate::AccelTrees;
 use crate::stats::AccelStats;
 use bevy::asset::AssetId;
@@ -26,18 +25,18 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use std::sync::OnceLock;
 
-/// When [`AccelRayCast`](super::AccelRayCast) finds a candidate's mesh through the slot mesh
-/// table instead of the ECS (see [`AccelPickingSettings`](super::AccelPickingSettings)).
+/// When [`AccelRayCast`](crate::picking::AccelRayCast) finds a candidate's mesh through the slot mesh
+/// table instead of the ECS (see [`AccelPickingSettings`](crate::picking::AccelPickingSettings)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 #[reflect(Debug, Default, PartialEq)]
 pub enum SlotMeshTableMode {
     /// Kept while rays per frame (averaged, see
     /// [`AccelStats::rays_per_frame`](crate::AccelStats)) reach
-    /// [`AccelPickingSettings::slot_mesh_table_rays_per_entity`](super::AccelPickingSettings)
+    /// [`AccelPickingSettings::slot_mesh_table_rays_per_entity`](crate::picking::AccelPickingSettings)
     /// times the tracked entities, and dropped below half that. A pointer or two per frame
     /// never pays for the table's upkeep; hundreds of rays per frame do. Switching it on
-    /// costs one pass over the tracked entities, in that frame (3.9 ms at 100k on the
-    /// benchmark machine).
+    /// costs one pass over the tracked entities, in that frame (docs/experiments.md,
+    /// Picking).
     #[default]
     Auto,
     /// Always kept: for scenes that cast many rays from the first frame.
@@ -71,6 +70,22 @@ impl SlotMesh {
         two_sided: false,
         visibility_rows: false,
     };
+}
+
+/// The mesh Bevy's ray cast tests for an entity (its `SimplifiedMesh`, else its `Mesh3d`, else
+/// its `Mesh2d`), and whether back faces count (`RayCastBackfaces`, or a 2d mesh: Bevy never
+/// culls those). `None` for an entity with none of the three.
+pub(crate) fn ray_cast_mesh<'a>(
+    mesh3d: Option<&'a Mesh3d>,
+    mesh2d: Option<&'a Mesh2d>,
+    simplified: Option<&'a SimplifiedMesh>,
+    backfaces: bool,
+) -> Option<(&'a Handle<Mesh>, bool)> {
+    let handle = simplified
+        .map(|m| &m.0)
+        .or(mesh3d.map(|m| &m.0))
+        .or(mesh2d.map(|m| &m.0))?;
+    Some((handle, backfaces || mesh2d.is_some()))
 }
 
 /// What decides a slot's entry: the entity's ray-cast mesh and back-face rule (see
@@ -119,15 +134,15 @@ pub(crate) enum SlotMeshLookup<'a> {
         two_sided: bool,
         /// The entity has both visibility components, as Bevy's ray cast requires of what it
         /// hits. A ray cast whose [`RayCastVisibility`] is `Any` then needs no ECS read for
-        /// a hit: the wait for the entity's location and its two visibility rows was 5-10%
-        /// of a ray at 100k entities (BENCHMARKS.md).
+        /// a hit, and skips the wait for the entity's location and its two visibility rows
+        /// (docs/experiments.md, Picking).
         ///
         /// [`RayCastVisibility`]: bevy::picking::mesh_picking::ray_cast::RayCastVisibility
         visibility_rows: bool,
     },
 }
 
-/// Each tree slot's mesh, as of the last sync, for [`AccelRayCast`](super::AccelRayCast).
+/// Each tree slot's mesh, as of the last sync, for [`AccelRayCast`](crate::picking::AccelRayCast).
 ///
 /// Kept by a system after the sync while [`AccelPickingSettings::slot_mesh_table`] says so
 /// (see [`SlotMeshTableMode`]); empty otherwise, and ray casts then read meshes from the ECS.
@@ -135,7 +150,7 @@ pub(crate) enum SlotMeshLookup<'a> {
 /// read for the new one before the table learns it. Like the trees' boxes, the table sees a
 /// mesh handle changed after the sync from the next frame.
 ///
-/// [`AccelPickingSettings::slot_mesh_table`]: super::AccelPickingSettings::slot_mesh_table
+/// [`AccelPickingSettings::slot_mesh_table`]: crate::picking::AccelPickingSettings::slot_mesh_table
 #[derive(Resource, Default)]
 pub struct SlotMeshTable {
     active: bool,
@@ -333,7 +348,7 @@ type ChangedMeshFilter = Or<(
 /// entries of slots handed to new entities, of entities whose mesh components changed, and
 /// of those that lost one. Runs after the sync, so slots are this frame's.
 pub(crate) fn keep_slot_mesh_table(
-    settings: Res<super::AccelPickingSettings>,
+    settings: Res<crate::picking::AccelPickingSettings>,
     stats: Res<AccelStats>,
     trees: Res<AccelTrees>,
     mut table: ResMut<SlotMeshTable>,

@@ -122,7 +122,7 @@ pub enum MeshShape {
     Bounds,
 }
 
-/// The per-asset cache of mesh BVHs behind [`AccelRayCast`](super::AccelRayCast).
+/// The per-asset cache of mesh BVHs behind [`AccelRayCast`](crate::picking::AccelRayCast).
 ///
 /// The map sits behind a lock so that ray casts, which only read the world, can fill it from
 /// a shared `Res` and systems using the ray cast stay free to run in parallel. Entries are

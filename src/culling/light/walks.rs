@@ -6,10 +6,10 @@
 //! each entity's oriented box, which is then behind that plane too, and Bevy's test (one plane
 //! at a time) rejects it as well. For a light's range: see [`light_sphere_may_reach`].
 
-use super::light_verdicts::{LightLists, LightVerdicts, pack, walk_lists};
-use super::slot_order::FoundSlots;
-use super::system::tree_plane;
-use super::untracked::UntrackedEntities;
+use super::verdicts::{LightLists, LightVerdicts, pack, walk_lists};
+use crate::culling::bevy_rounding::tree_plane;
+use crate::culling::slot_order::FoundSlots;
+use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
 use accel::Frustum as AccelFrustum;
 use bevy::camera::primitives::{Frustum, Sphere};
@@ -43,11 +43,11 @@ pub(super) fn light_sphere_may_reach(sphere: &Sphere, b: &accel::Aabb) -> bool {
 
 /// Above this fraction of the tracked entities found by a light view's walk, the view is
 /// decided by a flat parallel pass instead. First an estimate from `benches/light_culling.rs`
-/// (a candidate cost about 100-150 ns on the tree path, one thread and one lookup each; a
-/// caster 45-90 ns in Bevy's loop on two threads). Once both paths took the walk's masks
-/// (`light_verdicts`), the bench's 100k directional view (about 69% found) measured the same
-/// on either path (tree 3.6-4.7 ms still and 6.1-6.4 ms moving, flat 3.6-3.7 and 6.9-7.1 ms),
-/// and its 1M one (2.6%) faster on the tree path, so the crossover lies between.
+/// of a candidate's cost on the tree path (one thread, one lookup each) against a caster's in
+/// Bevy's loop (two threads). Once both paths took the walk's masks (`verdicts`), the
+/// bench's 100k directional view (about 69% found) measured about the same on either path,
+/// and its 1M one (2.6%) faster on the tree path, so the crossover lies between (the figures:
+/// docs/experiments.md, Light culling).
 const FLAT_LIGHT_VIEW_ABOVE: f32 = 1.0 / 3.0;
 
 /// A light view's last walk, kept for the next frame. Why: in a still scene a light's walk
@@ -75,7 +75,7 @@ pub(super) struct LightCandidates {
     pub(super) reused: usize,
     found: FoundSlots,
     /// Found by the walk, in slot order, each with the view's lists that hold it and those
-    /// that cross its leaf ([`super::light_verdicts::pack`]'s form). `NoFrustumCulling` ones
+    /// that cross its leaf ([`super::verdicts::pack`]'s form). `NoFrustumCulling` ones
     /// among them are skipped: they come again in `others`.
     walked: Vec<(Entity, u16)>,
     /// The view's lists' frusta as the walk tests them (scratch).
@@ -181,7 +181,7 @@ impl LightCandidates {
     }
 
     /// Each candidate with, if a walk found it, the masks of its lists (in
-    /// [`super::light_verdicts::pack`]'s form).
+    /// [`super::verdicts::pack`]'s form).
     pub(super) fn iter(&self) -> impl Iterator<Item = (Entity, Option<u16>)> + '_ {
         let walked = self.walked.iter().map(|&(e, m)| (e, Some(m)));
         walked.chain(self.others.iter().map(|&e| (e, None)))

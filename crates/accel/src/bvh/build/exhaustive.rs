@@ -2,15 +2,15 @@
 //!
 //! Why: a binned build spends a fifth of its calls on nodes of three or four primitives, and
 //! for those the binning's fixed cost (clearing three rows of bins, sweeping them twice)
-//! outweighs the primitives. Enumerating the 3 or 7 partitions costs less (a million-triangle
-//! build: about 65 instead of 240 cycles a node of three, 175 instead of 335 for four), and
-//! finds the optimal split rather than the best of the bins' planes. From five primitives on
+//! outweighs the primitives. Enumerating the 3 or 7 partitions costs less (measured per node
+//! in a million-triangle build: docs/experiments.md, Static BVH builds), and finds the
+//! optimal split rather than the best of the bins' planes. From five primitives on
 //! (15 partitions, the unions of 31 subsets) the bins were cheaper again; nodes of five to
-//! eight now take every plane instead where the CPU has AVX2 (`split_sorted`).
+//! eight now take every plane instead where the CPU has AVX2 (`sorted`).
 
-use super::build::{BuildPrim, NodeBounds, SplitOutcome, leaf_is_cheaper};
-use super::config::BuildConfig;
+use super::top_down::{BuildPrim, NodeBounds, SplitOutcome, leaf_is_cheaper};
 use crate::Aabb;
+use crate::bvh::config::BuildConfig;
 
 /// The most primitives a node may have for [`split`].
 pub(super) const MAX_PRIMS: usize = 4;
@@ -29,7 +29,7 @@ pub(super) fn split(
         3 => split_n::<3, 8>(prims, node_bounds, config, may_stop),
         4 => split_n::<4, 16>(prims, node_bounds, config, may_stop),
         0 | 1 => SplitOutcome::Leaf,
-        n => unreachable!("split_exhaustive::split takes 2 to {MAX_PRIMS} primitives, not {n}"),
+        n => unreachable!("exhaustive::split takes 2 to {MAX_PRIMS} primitives, not {n}"),
     }
 }
 
@@ -93,7 +93,7 @@ fn split_n<const N: usize, const S: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::build::{check_small_split, leaf_wins_by_sah, records_of};
+    use super::super::top_down::{check_small_split, leaf_wins_by_sah, records_of};
     use super::*;
     use glam::Vec3A;
 

@@ -5,14 +5,15 @@
 //! six cube faces per point light, one frustum per spot light, one per cascade and camera per
 //! directional light. Here each light view walks the trees first, and Bevy's own per-entity
 //! tests run only on what the walk found, and only where the walk could not settle them
-//! ([`super::light_verdicts`]). The walks ([`super::light_walks`]) drop only what Bevy's
+//! ([`super::verdicts`]). The walks ([`super::walks`]) drop only what Bevy's
 //! tests would drop, and settle only what they would pass, so the results are Bevy's.
 
-use super::class_lists::sort_visible;
-use super::light_verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS, unpack};
-use super::light_walks::{LightCandidates, ViewKey, light_planes};
-use super::system::{CullingStats, ViewFilter};
-use super::untracked::UntrackedEntities;
+use super::verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS, unpack};
+use super::walks::{LightCandidates, ViewKey, light_planes};
+use crate::culling::bevy_tests::ViewFilter;
+use crate::culling::class_lists::sort_visible;
+use crate::culling::stats::CullingStats;
+use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
 use bevy::camera::primitives::{Aabb, CascadesFrusta, CubemapFrusta, Frustum, Sphere};
 use bevy::camera::visibility::{
@@ -188,7 +189,7 @@ fn decide_lists(
         lists.iter_mut().for_each(|list| sort_visible(list));
         found
     } else {
-        // The walk's masks settle the tests where they can (see `light_verdicts`); a view with
+        // The walk's masks settle the tests where they can (see `verdicts`); a view with
         // more lists than they hold is tested caster by caster.
         let settle = lists.len() <= MAX_SETTLED_LISTS;
         for (entity, walked) in candidates.iter() {
@@ -234,7 +235,7 @@ fn decide_view(
 ) {
     let tracked = trees.len();
     let flat = candidates.flat(tracked);
-    // A flat view still takes the trees' word where they can give it (see `light_verdicts`).
+    // A flat view still takes the trees' word where they can give it (see `verdicts`).
     let settled = flat && candidates.trees_current() && lists.len() <= MAX_SETTLED_LISTS;
     if settled {
         if candidates.verdicts.walk(view, trees, walked) {
@@ -302,7 +303,7 @@ pub(crate) fn cull_point_and_spot_lights(
                     center: Vec3A::from(transform.translation()),
                     radius: point_light.range,
                 };
-                // One walk over the six faces within the light's range (see `light_verdicts`).
+                // One walk over the six faces within the light's range (see `verdicts`).
                 let face_planes = frusta.frusta.each_ref().map(|f| light_planes(f, true));
                 let walked = LightLists {
                     sphere: Some(&sphere),

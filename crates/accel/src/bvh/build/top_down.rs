@@ -1,10 +1,10 @@
 //! The top-down builder: one driver, four ways to split (and the dispatch to the bottom-up
 //! PLOC builder, which shares its output format).
 
-use super::config::{BuildConfig, SplitStrategy};
-use super::node::BvhNode;
-use super::{lbvh, ploc, split_binned, split_object, split_sweep};
+use super::{binned, lbvh, object, ploc, sweep};
 use crate::Aabb;
+use crate::bvh::config::{BuildConfig, SplitStrategy};
+use crate::bvh::node::BvhNode;
 use glam::{Vec3A, Vec4};
 
 /// A primitive during the build: its box and its id, moved as one so partitions stay local in
@@ -28,8 +28,8 @@ pub(super) struct BuildPrim {
 /// Flipped into an id before its bits go into a float lane. Why: the lane rides along through
 /// the vector arithmetic of centroids and unions, and an id below 2^23 read as a float is a
 /// denormal, which makes every multiply on it take a microcode assist: the first version of
-/// this record built 6x slower. With bit 30 flipped the lane's exponent is nonzero for every
-/// id below 2^30.
+/// this record built several times slower (docs/experiments.md, Static BVH builds). With bit
+/// 30 flipped the lane's exponent is nonzero for every id below 2^30.
 const ID_LANE_FLIP: u32 = 1 << 30;
 
 impl BuildPrim {
@@ -107,7 +107,10 @@ pub(super) enum SplitOutcome {
 ///
 /// Primitives with invalid bounds (NaN, or empty) are left out: they could never be hit, and a
 /// NaN in a node box would hide its whole subtree from every query.
-pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode>, Vec<u32>) {
+pub(in crate::bvh) fn build_nodes(
+    bounds: &[Aabb],
+    config: &BuildConfig,
+) -> (Vec<BvhNode>, Vec<u32>) {
     if let SplitStrategy::Ploc {
         search_radius,
         reinsert_per_mille,
@@ -129,8 +132,9 @@ pub(super) fn build_nodes(bounds: &[Aabb], config: &BuildConfig) -> (Vec<BvhNode
 /// The build records of the valid boxes of `bounds`, and their bounds.
 ///
 /// Why the bounds here: as a pass of their own, the root's box and centroid bounds read every
-/// record once more, 3.8 ms of a 164 ms million-triangle build; folded into the pass that
-/// writes the records, they cost next to nothing (builds 0-3% faster, `BENCHMARKS.md`).
+/// record once more; folded into the pass that writes the records, they cost next to nothing
+/// (a small gain, at the edge of the benchmark machine's noise: docs/experiments.md, Static
+/// BVH builds).
 pub(super) fn collect_prims(bounds: &[Aabb]) -> (Vec<BuildPrim>, NodeBounds) {
     assert!(
         bounds.len() < u32::MAX as usize,
@@ -156,7 +160,7 @@ pub(super) struct NodeBounds {
     pub node: Aabb,
     pub centroids: Aabb,
     /// Whether `node` is the node's tight box. A split that binned only a sample of its
-    /// primitives knows its children's boxes only as its own (see `split_binned`): the driver
+    /// primitives knows its children's boxes only as its own (see `binned`): the driver
     /// tightens those boxes from the children once the subtree is built.
     pub tight: bool,
 }
@@ -239,12 +243,12 @@ pub(super) fn build_subtree(
 /// build, and glibc serves a block that large by mapping fresh pages, while blocks no larger
 /// than the build's other buffers come from its heap once those are freed. In a loop of
 /// 1M-triangle PLOC builds, each dropped before the next (as criterion, or a game that
-/// rebuilds, does), reserving `n` took a build's page faults from 23.5k to 6.2k and its time
-/// from 119 to 78 ms; a page fault costs about 2 us on the benchmark VM. It also matters
-/// across builders: with the top-down builders alone still reserving `2n - 1`, PLOC builds
-/// later in the same process ran at 165 ms instead of 131. Why not always `n`: a tree that
-/// needs about `2n` grows it by a copy into a block mapped afresh, which made the plugin's
-/// entity tree (one or two entities a leaf) build 20-30% slower. A first build in a fresh
+/// rebuilds, does), reserving `n` cut a build's page faults to about a quarter and its time
+/// by about a third, page faults being dear on a VM. It also matters across builders: with
+/// the top-down builders alone still reserving `2n - 1`, PLOC builds later in the same
+/// process ran slower again. Why not always `n`: a tree that needs about `2n` grows it by a
+/// copy into a block mapped afresh, which made the plugin's entity tree (one or two entities
+/// a leaf) build slower (docs/experiments.md, Static BVH builds). A first build in a fresh
 /// process gains nothing either way.
 pub(super) fn first_node_reservation(n: usize, config: &BuildConfig) -> usize {
     let small_leaves = config.max_leaf_size <= 1 || config.sah.intersection > config.sah.traversal;
@@ -397,14 +401,14 @@ fn choose_split(
     }
     match config.split {
         SplitStrategy::Midpoint | SplitStrategy::Median if fits_in_leaf => SplitOutcome::Leaf,
-        SplitStrategy::Midpoint => split_object::midpoint(prims, centroid_bounds),
-        SplitStrategy::Median => split_object::median(prims, centroid_bounds),
+        SplitStrategy::Midpoint => object::midpoint(prims, centroid_bounds),
+        SplitStrategy::Median => object::median(prims, centroid_bounds),
         SplitStrategy::BinnedSah { .. } | SplitStrategy::SweepSah
             if fits_in_leaf && !config.sah_termination =>
         {
             SplitOutcome::Leaf
         }
-        SplitStrategy::BinnedSah { bins } => split_binned::split(
+        SplitStrategy::BinnedSah { bins } => binned::split(
             prims,
             node_bounds,
             centroid_bounds,
@@ -412,14 +416,12 @@ fn choose_split(
             config,
             fits_in_leaf,
         ),
-        SplitStrategy::SweepSah => split_sweep::split(prims, node_bounds, config, fits_in_leaf),
+        SplitStrategy::SweepSah => sweep::split(prims, node_bounds, config, fits_in_leaf),
         // PLOC and LBVH never reach the top-down driver (`build_nodes` and the parallel build
         // hand them to their own builders); should they, an object-median split keeps the
         // tree valid.
         SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh if fits_in_leaf => SplitOutcome::Leaf,
-        SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh => {
-            split_object::median(prims, centroid_bounds)
-        }
+        SplitStrategy::Ploc { .. } | SplitStrategy::Lbvh => object::median(prims, centroid_bounds),
     }
 }
 
@@ -540,8 +542,7 @@ mod tests {
             assert_tight(&nodes, &order, &boxes, name);
             #[cfg(feature = "rayon")]
             {
-                let (nodes, order) =
-                    super::super::build_parallel::build_nodes_parallel(&boxes, &config);
+                let (nodes, order) = super::super::parallel::build_nodes_parallel(&boxes, &config);
                 assert_tight(&nodes, &order, &boxes, name);
             }
         }
