@@ -30,14 +30,10 @@ pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
 pub use query::{BoundingTree, NodeVolume, RayHit, SpatialQuery};
 
-/// A seeded stream of floats in `[0, 1)` (xorshift64) for the unit tests: reproducible, and no
-/// dependency.
+/// A seeded stream of floats in `[0, 1)` for the unit tests: the test kit's generator, so
+/// that the crate's tests and benches draw from one.
 #[cfg(test)]
-pub(crate) fn test_floats(mut state: u64) -> impl FnMut() -> f32 {
-    move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    }
+pub(crate) fn test_floats(seed: u64) -> impl FnMut() -> f32 {
+    let mut rng = accel_testkit::Rng::new(seed);
+    move || rng.f32()
 }
