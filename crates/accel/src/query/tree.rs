@@ -3,7 +3,7 @@
 use super::NodeVolume;
 
 /// A hierarchy of bounding volumes over primitive ids: a binary BVH, a wide BVH, a sphere
-/// tree, an octree.
+/// tree, and the coming octree.
 ///
 /// Every query of [`SpatialQuery`](super::SpatialQuery) is written once over this view (in
 /// [`crate::query::walks`] and [`crate::query::views`]) and behaves the same on every tree

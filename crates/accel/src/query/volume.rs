@@ -3,8 +3,8 @@
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use glam::Vec3A;
 
-/// A bounding volume that a tree's nodes carry: a box for the BVHs and the octree, a sphere
-/// for [`SphereBvh`](crate::bvh::SphereBvh).
+/// A bounding volume that a tree's nodes carry: a box for the BVHs (and the coming octree),
+/// a sphere for [`SphereBvh`](crate::bvh::SphereBvh).
 ///
 /// Every test is conservative in the same direction: it may say "reached" for a volume the
 /// query only grazes, never "missed" for one it reaches, so a walk that prunes on it loses

@@ -1,6 +1,6 @@
 //! The traversals every [`BoundingTree`] shares, whatever its branching factor: the static,
-//! dynamic, wide and sphere BVHs, the static/dynamic pair and the octree answer their
-//! queries with this code.
+//! dynamic, wide and sphere BVHs and the static/dynamic pair answer their queries with this
+//! code, and the octree will.
 //!
 //! Each is a stack traversal that prunes by the query's test against a node's volume; the ray
 //! walk enters the nearest child first and prunes by the best distance found so far.
