@@ -178,7 +178,7 @@ impl DynamicIndex for BruteForceIndex {
             entries: self.ids.len(),
             nodes: 1,
             depth: 0,
-            memory_bytes: self.ids.capacity() * 8
+            memory_bytes: (self.ids.capacity() + self.slot_of.capacity()) * 4
                 + self.boxes.capacity() * size_of::<Aabb>()
                 + self.slots.capacity() * size_of::<Slot>()
                 + self.free_slots.capacity() * 4,
