@@ -136,17 +136,13 @@ where
             visit_subtree(tree, node, |p| visit(p, masks));
             continue;
         }
-        let Some(children) = tree.node_children(node) else {
-            for &p in tree.node_primitives(node) {
-                visit(p, masks);
-            }
-            continue;
-        };
-        if T::INTERIOR_PRIMITIVES {
+        let children = tree.node_children(node);
+        if children.is_none() || T::INTERIOR_PRIMITIVES {
             for &p in tree.node_primitives(node) {
                 visit(p, masks);
             }
         }
+        let Some(children) = children else { continue };
         // Near the front of the queue, the children are read before the look-ahead above
         // reaches them.
         let prefetch = queue.len() - next < PREFETCH_AHEAD;

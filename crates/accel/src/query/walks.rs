@@ -56,21 +56,15 @@ where
             continue;
         }
         loop {
-            let Some(children) = tree.node_children(node) else {
-                for &prim in tree.node_primitives(node) {
-                    if visit(prim, ray).is_break() {
-                        return;
-                    }
-                }
-                break;
-            };
-            if T::INTERIOR_PRIMITIVES {
+            let children = tree.node_children(node);
+            if children.is_none() || T::INTERIOR_PRIMITIVES {
                 for &prim in tree.node_primitives(node) {
                     if visit(prim, ray).is_break() {
                         return;
                     }
                 }
             }
+            let Some(children) = children else { break };
             let mut nearest: Option<(u32, f32)> = None;
             for child in children {
                 let Some(t) = tree.node_bounds(child).ray_entry(ray) else {
@@ -115,24 +109,16 @@ where
         if !node_test(&tree.node_bounds(node)) {
             continue;
         }
-        match tree.node_children(node) {
-            Some(children) => {
-                if T::INTERIOR_PRIMITIVES
-                    && visit_node_primitives(tree, node, &mut visit).is_break()
-                {
-                    return;
-                }
-                // Each is read soon: overlap their misses in a scattered tree.
-                for child in children.into_iter().rev() {
-                    tree.prefetch_node(child);
-                    stack.push(child);
-                }
-            }
-            None => {
-                if visit_node_primitives(tree, node, &mut visit).is_break() {
-                    return;
-                }
-            }
+        let children = tree.node_children(node);
+        if (children.is_none() || T::INTERIOR_PRIMITIVES)
+            && visit_node_primitives(tree, node, &mut visit).is_break()
+        {
+            return;
+        }
+        // Each is read soon: overlap their misses in a scattered tree.
+        for child in children.into_iter().flatten().rev() {
+            tree.prefetch_node(child);
+            stack.push(child);
         }
     }
 }
@@ -199,24 +185,18 @@ where
             Containment::Outside => {}
             // The whole subtree is in view: emit it without testing another plane.
             Containment::Inside => visit_subtree(tree, node, |p| visit(p, Containment::Inside)),
-            Containment::Intersecting => match tree.node_children(node) {
-                Some(children) => {
-                    if T::INTERIOR_PRIMITIVES {
-                        for &p in tree.node_primitives(node) {
-                            visit(p, Containment::Intersecting);
-                        }
-                    }
-                    for child in children.into_iter().rev() {
-                        tree.prefetch_node(child);
-                        stack.push(child);
-                    }
-                }
-                None => {
+            Containment::Intersecting => {
+                let children = tree.node_children(node);
+                if children.is_none() || T::INTERIOR_PRIMITIVES {
                     for &p in tree.node_primitives(node) {
                         visit(p, Containment::Intersecting);
                     }
                 }
-            },
+                for child in children.into_iter().flatten().rev() {
+                    tree.prefetch_node(child);
+                    stack.push(child);
+                }
+            }
         }
     }
 }
