@@ -105,6 +105,7 @@ fn main() {
             // movers, which 1,024 rays against 1% of 100,000 movers would leave to chance).
             app.world_mut()
                 .resource_mut::<AccelSettings>()
+                .bvh
                 .ray_snapshot_rays_per_mover = 0.0;
         }
         let mut ours = SystemState::<AccelRayCast>::new(app.world_mut());

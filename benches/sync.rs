@@ -106,7 +106,8 @@ fn bench(c: &mut Criterion) {
         sync += s.sync_time;
         maintain += s.maintain_time;
         optimize += s
-            .last_maintain
+            .bvh
+            .and_then(|b| b.last_maintain)
             .map_or(Duration::ZERO, |m| m.optimize.elapsed);
         updated += s.updated;
     }
@@ -118,7 +119,11 @@ fn bench(c: &mut Criterion) {
         maintain / SPLIT_FRAMES,
         optimize / SPLIT_FRAMES,
     );
-    let dynamic = app.world().resource::<AccelTrees>().dynamic();
+    let dynamic = app
+        .world()
+        .resource::<AccelTrees>()
+        .dynamic_bvh()
+        .expect("the BVH is the default index");
     println!(
         "after the moving frames: {} rebuilds installed, quality {:?}",
         dynamic.rebuild_count(),

@@ -44,6 +44,7 @@
 mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
+pub mod index;
 #[cfg(feature = "picking")]
 mod meshes;
 #[cfg(feature = "picking")]
@@ -58,6 +59,7 @@ pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::AccelCullingPlugin;
+pub use index::{EntityIndex, IndexChoice};
 #[cfg(feature = "picking")]
 pub use picking::{AccelPickingPlugin, AccelRayCast};
 pub use settings::AccelSettings;
@@ -70,6 +72,7 @@ use bevy::transform::TransformSystems;
 
 /// The most used items.
 pub mod prelude {
+    pub use crate::index::{BvhIndexSettings, IndexChoice};
     pub use crate::{
         AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
         AccelTracked, AccelTrees,
@@ -101,6 +104,8 @@ impl Plugin for AccelPlugin {
     fn build(&self, app: &mut App) {
         app.insert_resource(self.settings.clone())
             .register_type::<AccelSettings>()
+            .register_type::<index::IndexChoice>()
+            .register_type::<index::BvhIndexSettings>()
             .register_type::<AccelIgnore>()
             .register_type::<AccelStatic>()
             .register_type::<AccelTracked>()
@@ -125,7 +130,7 @@ impl Plugin for AccelPlugin {
                 PostUpdate,
                 (
                     sync::sync_trees.in_set(AccelSystems::Sync),
-                    sync::maintain_trees.in_set(AccelSystems::Maintain),
+                    index::maintain_index.in_set(AccelSystems::Maintain),
                     stats::publish_stats.in_set(AccelSystems::Stats),
                 ),
             );

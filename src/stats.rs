@@ -1,6 +1,8 @@
 //! What the trees did this frame, as a resource and as Bevy diagnostics.
 
+use crate::index::{BvhIndexStats, IndexChoice};
 use crate::trees::AccelTrees;
+use accel::query::{IndexStats, UpkeepReport};
 use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
 use bevy::prelude::*;
 use core::time::Duration;
@@ -26,18 +28,19 @@ pub struct AccelStats {
     /// [`AccelTrees::count_rays`], as `AccelRayCast` counts its own), averaged over about ten
     /// frames: what the ray snapshot and picking's slot mesh table are kept for.
     pub rays_per_frame: f32,
-    /// Entities in the dynamic tree.
+    /// Entities in the dynamic index.
     pub dynamic_entities: usize,
     /// Entities in the static tree.
     pub static_entities: usize,
-    /// Depth of the dynamic tree: its longest root-to-leaf path, in edges.
-    pub dynamic_depth: usize,
-    /// Estimated SAH cost of the dynamic tree relative to a fresh build (1.0 = as good).
-    pub sah_ratio: f32,
-    /// The dynamic tree's last maintenance report (refit size, optimiser work, quality,
-    /// rebuilds), for debugging. Kept as the report itself, not text: formatting it every
-    /// frame would put an allocation in the sync path.
-    pub last_maintain: Option<accel::dynamic::MaintainReport>,
+    /// The structure holding the moving entities.
+    pub index: IndexChoice,
+    /// Shape and cost of the dynamic index (nodes, depth, memory, quality against a fresh
+    /// build where the structure tracks it), read in O(1).
+    pub dynamic_index: IndexStats,
+    /// What the dynamic index's last upkeep did.
+    pub last_upkeep: UpkeepReport,
+    /// The BVH backend's own figures, while it is the index.
+    pub bvh: Option<BvhIndexStats>,
 }
 
 impl AccelStats {
@@ -48,10 +51,12 @@ impl AccelStats {
         DiagnosticPath::const_new("bevy_accel/maintain_time_ms");
     /// Tracked entities.
     pub const ENTITIES: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/entities");
-    /// Dynamic tree depth.
+    /// Depth of the dynamic index.
     pub const DEPTH: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/dynamic_depth");
-    /// Dynamic tree SAH ratio to a fresh build.
-    pub const SAH_RATIO: DiagnosticPath = DiagnosticPath::const_new("bevy_accel/sah_ratio");
+    /// Query cost of the dynamic index relative to a fresh build (the BVH's SAH ratio); not
+    /// measured for indexes that do not track it.
+    pub const QUALITY_RATIO: DiagnosticPath =
+        DiagnosticPath::const_new("bevy_accel/dynamic_quality_ratio");
 
     pub(crate) fn register(app: &mut App) {
         for path in [
@@ -59,7 +64,7 @@ impl AccelStats {
             Self::MAINTAIN_TIME,
             Self::ENTITIES,
             Self::DEPTH,
-            Self::SAH_RATIO,
+            Self::QUALITY_RATIO,
         ] {
             app.register_diagnostic(Diagnostic::new(path));
         }
@@ -75,10 +80,11 @@ pub(crate) fn publish_stats(
     mut diagnostics: Diagnostics,
 ) {
     if trees.is_changed() {
-        stats.dynamic_entities = trees.dynamic().len();
+        let index = trees.query();
+        stats.dynamic_entities = index.dynamic_len();
         stats.static_entities = trees.static_len();
-        stats.sah_ratio = trees.dynamic().quality().ratio;
-        stats.dynamic_depth = trees.dynamic().height();
+        stats.index = index.choice();
+        stats.dynamic_index = index.dynamic_stats();
     }
     let s = &*stats;
     diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
@@ -88,6 +94,8 @@ pub(crate) fn publish_stats(
     diagnostics.add_measurement(&AccelStats::ENTITIES, || {
         (s.dynamic_entities + s.static_entities) as f64
     });
-    diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_depth as f64);
-    diagnostics.add_measurement(&AccelStats::SAH_RATIO, || s.sah_ratio as f64);
+    diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_index.depth as f64);
+    if let Some(ratio) = s.dynamic_index.quality_ratio {
+        diagnostics.add_measurement(&AccelStats::QUALITY_RATIO, || ratio as f64);
+    }
 }

@@ -10,7 +10,6 @@ use crate::prefetch::{for_each_prefetched_in_two_stages, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::{AccelTrees, LocalFrame, Placed};
-use accel::dynamic::DynamicBvhConfig;
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
@@ -139,6 +138,17 @@ pub(crate) fn sync_trees(
     // nor the trees change).
     let tree_state = trees.bypass_change_detection();
     tree_state.clear_assigned_slots();
+    let switched = tree_state.query().choice() != settings.index;
+    if switched {
+        // Every dynamic entity moves to the new index: as many updates, for the readers.
+        let before = tree_state.query().dynamic_len();
+        let refused = tree_state.switch_index(settings.index);
+        for (entity, why) in refused.iter().copied() {
+            reject(&mut rejected, entity, why);
+        }
+        counts.updated += before - refused.len();
+        counts.removed += refused.len();
+    }
 
     for entity in pending.0.drain() {
         let desired =
@@ -208,7 +218,7 @@ pub(crate) fn sync_trees(
         );
     }
     let static_rebuilt = tree_state.rebuild_static_if_dirty();
-    if counts.inserted + counts.updated + counts.removed > 0 || static_rebuilt {
+    if counts.inserted + counts.updated + counts.removed > 0 || static_rebuilt || switched {
         trees.set_changed();
     }
 
@@ -267,133 +277,5 @@ fn place_checked(
 fn reject(rejected: &mut RejectedEntities, entity: Entity, why: &str) {
     if rejected.0.insert(entity) {
         warn!("bevy_accel: entity {entity} is left out of the trees: {why}");
-    }
-}
-
-/// Refits what moved, lets the optimiser spend its budget, and rebuilds when quality has
-/// decayed. Does no tree work in a frame where no dynamic leaf moved. Then keeps the dynamic
-/// tree's ray snapshot (see [`keep_ray_snapshot`]).
-pub(crate) fn maintain_trees(
-    settings: Res<AccelSettings>,
-    mut trees: ResMut<AccelTrees>,
-    mut stats: ResMut<AccelStats>,
-    mut traffic: Local<RayTraffic>,
-) {
-    let config = DynamicBvhConfig {
-        margin: settings.fat_margin,
-        relative_margin: settings.relative_fat_margin,
-        motion_prediction: settings.motion_prediction,
-        optimize_budget: settings.optimize_budget(),
-        rebuild_threshold: settings.rebuild_threshold,
-        background_rebuild: settings.background_rebuild,
-        ..*trees.dynamic().config()
-    };
-    if *trees.dynamic().config() != config {
-        trees.dynamic_mut().set_config(config);
-    }
-    traffic.observe(&trees, &stats);
-    stats.rays_per_frame = traffic.rays;
-    let start = Instant::now();
-    // Checked through shared access first: a mutable access marks `AccelTrees` changed.
-    let snapshot_moved = trees.query().dynamic_ray_snapshot_needs_refit();
-    let worth_refitting = traffic.rays_pay_for_refits(&settings);
-    if snapshot_moved && !worth_refitting {
-        trees.drop_dynamic_ray_snapshot();
-    }
-    if trees.dynamic().needs_refit() || stats.inserted > 0 || stats.removed > 0 {
-        stats.last_maintain = Some(trees.maintain_dynamic());
-    } else if snapshot_moved && worth_refitting {
-        // Motion inside the fat boxes: nothing for the dynamic tree, but the snapshot's
-        // boxes are tight.
-        trees.refit_dynamic_ray_snapshot();
-    }
-    keep_ray_snapshot(&settings, &mut trees, &traffic);
-    stats.maintain_time = start.elapsed();
-}
-
-/// What the ray snapshot policy watches, frame to frame.
-#[derive(Default)]
-pub(crate) struct RayTraffic {
-    /// Frames in a row in which no dynamic entity entered or left.
-    stable_frames: u32,
-    /// Frames in a row in which, besides, no dynamic entity moved.
-    still_frames: u32,
-    /// Rays cast per frame, averaged over about ten frames.
-    rays: f32,
-    /// Dynamic entities moved per frame, averaged the same way.
-    movers: f32,
-    /// [`StaticDynamicPair::dynamic_update_count`](accel::dynamic::StaticDynamicPair::dynamic_update_count)
-    /// at the last frame.
-    updates_seen: u64,
-}
-
-impl RayTraffic {
-    /// Takes this frame's counts.
-    fn observe(&mut self, trees: &AccelTrees, stats: &AccelStats) {
-        let updates = trees.query().dynamic_update_count();
-        let moved = updates.saturating_sub(self.updates_seen);
-        self.updates_seen = updates;
-        let spawned = stats.inserted > 0 || stats.removed > 0;
-        self.stable_frames = if spawned {
-            0
-        } else {
-            self.stable_frames.saturating_add(1)
-        };
-        self.still_frames = if spawned || moved > 0 {
-            0
-        } else {
-            self.still_frames.saturating_add(1)
-        };
-        // An exponential average: one busy frame does not make the plugin build a snapshot,
-        // one quiet frame does not make it drop one.
-        const WEIGHT: f32 = 0.1;
-        self.rays += WEIGHT * (trees.take_rays_cast() as f32 - self.rays);
-        self.movers += WEIGHT * (moved as f32 - self.movers);
-    }
-
-    /// Whether the rays cast pay for refitting the snapshot after the motion (see
-    /// [`AccelSettings::ray_snapshot_rays_per_mover`]).
-    fn rays_pay_for_refits(&self, settings: &AccelSettings) -> bool {
-        self.rays > 0.0 && self.rays >= settings.ray_snapshot_rays_per_mover * self.movers
-    }
-}
-
-/// Installs, builds or rebuilds the dynamic tree's ray snapshot as the settings ask; touches
-/// `trees` mutably only when it does one of those.
-///
-/// Built once no dynamic entity has entered or left for
-/// [`AccelSettings::ray_snapshot_after_stable_frames`] frames, and either none has moved for
-/// as long or rays are many next to the movers
-/// ([`AccelSettings::ray_snapshot_rays_per_mover`]); refit in every frame with motion while
-/// that holds; rebuilt after [`AccelSettings::ray_snapshot_rebuild_after_moving_frames`]
-/// refits. Above [`AccelSettings::ray_snapshot_in_frame_max_entities`] builds run on a
-/// background thread, installed by a later frame.
-fn keep_ray_snapshot(
-    settings: &AccelSettings,
-    trees: &mut ResMut<AccelTrees>,
-    traffic: &RayTraffic,
-) {
-    let query = trees.query();
-    if query.dynamic_ray_snapshot_pending() {
-        trees.poll_dynamic_ray_snapshot();
-        return;
-    }
-    if trees.dynamic().is_empty() {
-        return;
-    }
-    let due = match query.dynamic_ray_snapshot_moving_refits() {
-        None => settings
-            .ray_snapshot_after_stable_frames
-            .is_some_and(|after| {
-                traffic.stable_frames >= after
-                    && (traffic.still_frames >= after || traffic.rays_pay_for_refits(settings))
-            }),
-        Some(moving) => settings
-            .ray_snapshot_rebuild_after_moving_frames
-            .is_some_and(|after| moving >= after),
-    };
-    if due {
-        let in_background = trees.dynamic().len() > settings.ray_snapshot_in_frame_max_entities;
-        trees.build_dynamic_ray_snapshot(in_background);
     }
 }

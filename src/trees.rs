@@ -1,7 +1,9 @@
 //! The trees over the world's entities, and the map between tree slots and entities.
 
+use crate::index::{EntityIndex, IndexChoice};
 use crate::prefetch::prefetch_all;
-use accel::dynamic::{DynamicBvh, DynamicBvhError, LeafHandle, MaintainReport, StaticDynamicPair};
+use accel::dynamic::DynamicBvh;
+use accel::query::{AnyHandle, IndexError};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::math::Affine3A;
 use bevy::prelude::*;
@@ -45,8 +47,8 @@ impl LocalFrame {
 /// Where a tracked entity lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TreeSlot {
-    /// In the dynamic tree, under this leaf.
-    Dynamic(LeafHandle),
+    /// In the dynamic index, under this handle.
+    Dynamic(AnyHandle),
     /// In the static tree.
     Static,
 }
@@ -62,7 +64,7 @@ pub enum TreeSlot {
 /// half the binned build's time, while rays and views ran as fast or faster on its trees in
 /// the picking, culling and light benches (BENCHMARKS.md, Static BVH builds;
 /// docs/experiments.md, same section).
-fn entity_tree_config() -> BuildConfig {
+pub(crate) fn entity_tree_config() -> BuildConfig {
     BuildConfig {
         split: accel::SplitStrategy::PLOC_FASTEST,
         max_leaf_size: 4,
@@ -143,14 +145,14 @@ pub(crate) enum Placed {
     Evicted(&'static str),
 }
 
-/// Why the dynamic tree refused an entity, as the warning about it says.
-fn refusal(e: DynamicBvhError) -> &'static str {
+/// Why the dynamic index refused an entity, as the warning about it says.
+fn refusal(e: IndexError) -> &'static str {
     match e {
-        DynamicBvhError::InvalidBounds => {
-            "its bounds are too close to the end of the float range for the dynamic tree"
+        IndexError::InvalidBounds => {
+            "its bounds are too close to the end of the float range for the dynamic index"
         }
-        DynamicBvhError::CapacityExceeded => "the dynamic tree is full",
-        DynamicBvhError::StaleHandle => "the dynamic tree lost its leaf",
+        IndexError::CapacityExceeded => "the dynamic index is full",
+        IndexError::StaleHandle => "the dynamic index lost its entry",
     }
 }
 
@@ -164,8 +166,10 @@ struct Tracked {
     tree: TreeSlot,
 }
 
-/// The acceleration trees over the tracked entities: a dynamic BVH for things that move and a
-/// static BVH for things marked [`AccelStatic`](crate::AccelStatic), queried as one.
+/// The acceleration trees over the tracked entities: a dynamic index for things that move
+/// (a BVH unless [`AccelSettings::index`](crate::AccelSettings::index) says otherwise) and a
+/// static BVH for things marked [`AccelStatic`](crate::AccelStatic), queried as one
+/// ([`EntityIndex`]).
 ///
 /// Trees name primitives by *slot*: a small integer per tracked entity, reused after the
 /// entity leaves. [`AccelTrees::entity`] and [`AccelTrees::world_bounds`] turn a slot from a
@@ -177,7 +181,9 @@ struct Tracked {
 /// whether what it computed from them last frame still holds.
 #[derive(Resource, Default)]
 pub struct AccelTrees {
-    pub(crate) pair: StaticDynamicPair,
+    index: EntityIndex,
+    /// Whether the dynamic index was edited since its last upkeep.
+    pending_upkeep: bool,
     /// Each tracked entity's slot and tree, by entity index (`None` where none).
     /// Why not a hash map: every moved entity is looked up each frame, and sync visits them in
     /// table order, which is nearly index order, so a direct array read is nearly sequential
@@ -203,18 +209,18 @@ pub struct AccelTrees {
 
 impl AccelTrees {
     /// Both trees, as one [`SpatialQuery`](accel::SpatialQuery): primitive ids are slots.
-    pub fn query(&self) -> &StaticDynamicPair {
-        &self.pair
+    pub fn query(&self) -> &EntityIndex {
+        &self.index
     }
 
-    /// The dynamic tree.
-    pub fn dynamic(&self) -> &DynamicBvh {
-        self.pair.dynamic()
+    /// The dynamic BVH, while it is the index of the moving entities.
+    pub fn dynamic_bvh(&self) -> Option<&DynamicBvh> {
+        self.index.dynamic_bvh()
     }
 
     /// The static tree.
     pub fn static_tree(&self) -> &Bvh {
-        self.pair.static_tree()
+        self.index.static_tree()
     }
 
     /// The entity in a slot, if the slot is in use.
@@ -279,13 +285,19 @@ impl AccelTrees {
             .filter_map(|(slot, e)| e.map(|e| (e, slot as u32)))
     }
 
-    pub(crate) fn dynamic_mut(&mut self) -> &mut DynamicBvh {
-        self.pair.dynamic_mut()
+    /// The index, for its upkeep (marks `AccelTrees` changed through `ResMut`).
+    pub(crate) fn index_mut(&mut self) -> &mut EntityIndex {
+        &mut self.index
     }
 
-    /// Counts `rays` cast through the trees. The plugin keeps the dynamic tree's ray snapshot
-    /// through motion only while rays are many next to the entities that move (see
-    /// [`AccelSettings::ray_snapshot_rays_per_mover`](crate::AccelSettings::ray_snapshot_rays_per_mover));
+    /// Whether the dynamic index was edited since the last call.
+    pub(crate) fn take_pending_upkeep(&mut self) -> bool {
+        core::mem::take(&mut self.pending_upkeep)
+    }
+
+    /// Counts `rays` cast through the trees. The BVH backend keeps the dynamic tree's ray
+    /// snapshot through motion only while rays are many next to the entities that move (see
+    /// [`BvhIndexSettings::ray_snapshot_rays_per_mover`](crate::index::BvhIndexSettings::ray_snapshot_rays_per_mover));
     /// `AccelRayCast` counts its rays, and a system walking [`Self::query`] with rays of its
     /// own should count them too.
     #[inline]
@@ -296,38 +308,6 @@ impl AccelTrees {
     /// The rays counted since the last call, and restarts the count.
     pub(crate) fn take_rays_cast(&self) -> u32 {
         self.rays_cast.swap(0, Ordering::Relaxed)
-    }
-
-    /// Drops the dynamic tree's ray snapshot (see
-    /// [`StaticDynamicPair::drop_dynamic_ray_snapshot`]).
-    pub(crate) fn drop_dynamic_ray_snapshot(&mut self) {
-        self.pair.drop_dynamic_ray_snapshot();
-    }
-
-    /// Refits what moved in the dynamic tree and its ray snapshot (see
-    /// [`StaticDynamicPair::maintain_dynamic`]).
-    pub(crate) fn maintain_dynamic(&mut self) -> MaintainReport {
-        self.pair.maintain_dynamic()
-    }
-
-    /// Refits the ray snapshot of the dynamic tree to the entities moved since its last refit
-    /// (see [`StaticDynamicPair::refit_dynamic_ray_snapshot`]).
-    pub(crate) fn refit_dynamic_ray_snapshot(&mut self) {
-        self.pair.refit_dynamic_ray_snapshot();
-    }
-
-    /// Builds a 16-wide tree over the dynamic entities for rays, as the static tree is built,
-    /// now or on another thread, replacing the one held (see
-    /// [`StaticDynamicPair::refresh_dynamic_ray_snapshot`]). Returns whether one is held or
-    /// being built.
-    pub(crate) fn build_dynamic_ray_snapshot(&mut self, in_background: bool) -> bool {
-        self.pair
-            .refresh_dynamic_ray_snapshot(&entity_tree_config(), in_background)
-    }
-
-    /// Installs a snapshot built on another thread if it is done and still matches.
-    pub(crate) fn poll_dynamic_ray_snapshot(&mut self) -> bool {
-        self.pair.poll_dynamic_ray_snapshot()
     }
 
     fn allocate_slot(&mut self, entity: Entity, bounds: Aabb, frame: LocalFrame) -> u32 {
@@ -376,15 +356,14 @@ impl AccelTrees {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
                     self.slots[t.slot as usize] = SlotEntry::new(entity, bounds, frame);
-                    // Through the pair, so that the dynamic tree's ray snapshot is refit
-                    // instead of dropped.
-                    match self.pair.update_dynamic(h, bounds) {
+                    self.pending_upkeep = true;
+                    match self.index.update(h, bounds) {
                         Ok(true) => Placed::Moved,
                         Ok(false) => Placed::Unchanged,
-                        Err(DynamicBvhError::InvalidBounds) => {
+                        Err(IndexError::InvalidBounds) => {
                             // Finite, but its fat box would overflow: no tree can hold it.
                             self.remove(entity);
-                            Placed::Evicted(refusal(DynamicBvhError::InvalidBounds))
+                            Placed::Evicted(refusal(IndexError::InvalidBounds))
                         }
                         Err(e) => {
                             // Cannot happen while handles are kept with their slots; if it
@@ -428,7 +407,8 @@ impl AccelTrees {
                     self.static_dirty = true;
                     TreeSlot::Static
                 } else {
-                    match self.pair.dynamic_mut().insert(slot, bounds) {
+                    self.pending_upkeep = true;
+                    match self.index.insert(slot, bounds) {
                         Ok(handle) => TreeSlot::Dynamic(handle),
                         Err(e) => {
                             self.release_slot(slot);
@@ -473,7 +453,7 @@ impl AccelTrees {
         let slot = t.slot as usize;
         prefetch_all(&self.slots[slot]);
         if let TreeSlot::Dynamic(handle) = t.tree {
-            self.pair.dynamic().prefetch_leaf(handle);
+            self.index.prefetch_entry(handle);
         }
     }
 
@@ -497,8 +477,9 @@ impl AccelTrees {
         self.tracked_count -= 1;
         match t.tree {
             TreeSlot::Dynamic(h) => {
-                if let Err(e) = self.pair.dynamic_mut().remove(h) {
-                    error!("bevy_accel: removing {entity} from the dynamic tree failed: {e}");
+                self.pending_upkeep = true;
+                if let Err(e) = self.index.remove(h) {
+                    error!("bevy_accel: removing {entity} from the dynamic index failed: {e}");
                 }
             }
             TreeSlot::Static => {
@@ -523,14 +504,46 @@ impl AccelTrees {
         if !std::mem::take(&mut self.static_dirty) {
             return false;
         }
-        self.pair
+        self.index
             .set_static(Bvh::build(&self.static_bounds, &entity_tree_config()));
         true
     }
 
     /// Number of entities in the static tree.
     pub fn static_len(&self) -> usize {
-        self.pair.static_tree().primitive_count()
+        self.index.static_tree().primitive_count()
+    }
+
+    /// Moves every dynamic entity into a new, empty index of the chosen kind, keeping the
+    /// static tree. Returns the entities the new index refused, with the reason: they are
+    /// out of the trees, and the caller reports them as it reports any refusal.
+    ///
+    /// Why one insertion each rather than a bulk build: the new structure's own insertion is
+    /// what its later edits will do, so the switch leaves it as it would be after a run, and
+    /// a switch is a rare, user-driven event.
+    pub(crate) fn switch_index(&mut self, choice: IndexChoice) -> Vec<(Entity, &'static str)> {
+        let static_tree = self.index.take_static();
+        self.index = EntityIndex::new(choice, static_tree);
+        self.pending_upkeep = true;
+        let mut refused = Vec::new();
+        for record in self.tracked_by_index.iter_mut().flatten() {
+            if let TreeSlot::Dynamic(handle) = &mut record.tree {
+                let bounds = self.slots[record.slot as usize].bounds();
+                match self.index.insert(record.slot, bounds) {
+                    Ok(new) => *handle = new,
+                    Err(e) => refused.push((record.entity, refusal(e))),
+                }
+            }
+        }
+        for &(entity, _) in &refused {
+            let t = self
+                .tracked(entity)
+                .expect("a refused entity is still tracked");
+            self.tracked_by_index[entity.index_u32() as usize] = None;
+            self.tracked_count -= 1;
+            self.release_slot(t.slot);
+        }
+        refused
     }
 }
 

@@ -35,7 +35,7 @@ fn a_reused_index_evicts_the_dead_entity_and_keeps_the_new_one() {
         assert!(trees.contains(newcomer) && trees.contains(other));
         assert_eq!(trees.len(), 2);
         trees.rebuild_static_if_dirty();
-        let held = trees.dynamic().len() + trees.static_len();
+        let held = trees.query().dynamic_len() + trees.static_len();
         assert_eq!(held, 2, "each entity in exactly one tree, once");
         let mut listed: Vec<Entity> = trees.iter().map(|(e, _)| e).collect();
         listed.sort();

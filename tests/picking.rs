@@ -43,7 +43,10 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
         if seed == 3 {
             // Seed 3's copy is made on a background thread.
             app.insert_resource(AccelSettings {
-                ray_snapshot_in_frame_max_entities: 0,
+                bvh: BvhIndexSettings {
+                    ray_snapshot_in_frame_max_entities: 0,
+                    ..default()
+                },
                 ..default()
             });
         }
@@ -57,7 +60,9 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
         if seed >= 2 {
             // Seeds 2 and 3's rays walk the dynamic tree's wide copy, which the plugin makes
             // once the world has been still long enough; seed 1's walk the binary tree.
-            let wait = AccelSettings::default().ray_snapshot_after_stable_frames;
+            let wait = AccelSettings::default()
+                .bvh
+                .ray_snapshot_after_stable_frames;
             for _ in 0..wait.expect("on by default") {
                 app.update();
             }

@@ -25,6 +25,7 @@ fn first_hit_down_z(app: &mut App, origin: Vec3) -> Option<Entity> {
 /// plugin builds the snapshot.
 fn snapshot_wait() -> u32 {
     AccelSettings::default()
+        .bvh
         .ray_snapshot_after_stable_frames
         .expect("on by default")
 }
@@ -64,7 +65,10 @@ fn world_with_mover(settings: AccelSettings) -> (App, Entity, Handle<Mesh>) {
 fn rays_follow_an_entity_that_moves_after_the_dynamic_tree_was_copied() {
     // Kept through motion whatever the ray count (the test casts one ray a frame at most).
     let (mut app, mover, cube) = world_with_mover(AccelSettings {
-        ray_snapshot_rays_per_mover: 0.0,
+        bvh: BvhIndexSettings {
+            ray_snapshot_rays_per_mover: 0.0,
+            ..default()
+        },
         ..default()
     });
     for _ in 0..snapshot_wait() + 2 {

@@ -6,7 +6,10 @@ use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
 use bevy_accel::TreeSlot;
 use bevy_accel::accel::SpatialQuery;
+use bevy_accel::accel::dynamic::DynamicBvh;
+use bevy_accel::accel::query::AnyHandle;
 use bevy_accel::prelude::*;
+use core::ops::ControlFlow;
 
 mod common;
 use accel_testkit::Rng;
@@ -17,11 +20,17 @@ fn app() -> App {
     app
 }
 
+/// The dynamic BVH, the default index.
+fn bvh(trees: &AccelTrees) -> &DynamicBvh {
+    trees.dynamic_bvh().expect("the BVH is the default index")
+}
+
 /// The scenario below moves static entities too, so it asks the plugin to watch them.
-fn app_watching_statics() -> App {
+fn app_watching_statics(index: IndexChoice) -> App {
     let mut app = App::new();
     let settings = AccelSettings {
         watch_static_motion: true,
+        index,
         ..Default::default()
     };
     app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
@@ -64,20 +73,30 @@ fn check_consistency(app: &mut App) {
     let tracked: EntityHashSet = trees.iter().map(|(e, _)| e).collect();
     assert_eq!(tracked.len(), trees.len());
     assert_eq!(tracked, expected, "tracked set differs from the ECS");
-    trees.dynamic().validate().unwrap();
+    if let Some(tree) = trees.dynamic_bvh() {
+        tree.validate().unwrap();
+    }
     for (e, world_box) in boxes {
         let (slot, tree) = trees.location(e).unwrap();
         assert_eq!(trees.entity(slot), Some(e));
         match tree {
-            TreeSlot::Dynamic(h) => {
-                let fat = trees.dynamic().fat_bounds(h).unwrap();
+            TreeSlot::Dynamic(AnyHandle::DynamicBvh(h)) => {
+                let fat = bvh(trees).fat_bounds(h).unwrap();
                 assert!(
                     fat.contains_aabb(&world_box),
                     "{e}: fat box {fat:?} misses {world_box:?}"
                 );
             }
+            TreeSlot::Dynamic(_) => assert_eq!(trees.world_bounds(slot), world_box),
             TreeSlot::Static => assert_eq!(trees.world_bounds(slot), world_box),
         }
+        // Whatever the index, a query over the entity's box reports its slot, once.
+        let mut seen = 0;
+        trees.query().for_each_overlapping_aabb(&world_box, |s| {
+            seen += usize::from(s == slot);
+            ControlFlow::Continue(())
+        });
+        assert_eq!(seen, 1, "{e}: its own box query saw it {seen} times");
     }
     // Every slot the static tree returns is a tracked static entity.
     let n_static = trees
@@ -97,7 +116,18 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 
 #[test]
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
-    let mut app = app_watching_statics();
+    // The BVH, the flat list, and the index switched between the two every 25 frames.
+    for (index, switch) in [
+        (IndexChoice::Bvh, false),
+        (IndexChoice::BruteForce, false),
+        (IndexChoice::Bvh, true),
+    ] {
+        churn(index, switch);
+    }
+}
+
+fn churn(index: IndexChoice, switch: bool) {
+    let mut app = app_watching_statics(index);
     let mut rng = Rng::from_state(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
@@ -172,8 +202,17 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
                     .id(),
             );
         }
+        if switch && frame % 25 == 24 {
+            let mut settings = app.world_mut().resource_mut::<AccelSettings>();
+            settings.index = match settings.index {
+                IndexChoice::Bvh => IndexChoice::BruteForce,
+                IndexChoice::BruteForce => IndexChoice::Bvh,
+            };
+        }
         app.update();
         check_consistency(&mut app);
+        let wanted = app.world().resource::<AccelSettings>().index;
+        assert_eq!(app.world().resource::<AccelStats>().index, wanted);
     }
     assert!(app.world().resource::<AccelTrees>().len() > 2000);
 }
@@ -254,9 +293,7 @@ fn bounds_the_tree_cannot_hold_stay_out_until_they_fit_again() {
     assert!(!app.world().resource::<AccelTrees>().contains(e));
     let stats = app.world().resource::<AccelStats>();
     assert_eq!((stats.removed, stats.rejected), (1, 1));
-    app.world()
-        .resource::<AccelTrees>()
-        .dynamic()
+    bvh(app.world().resource::<AccelTrees>())
         .validate()
         .unwrap();
 }
@@ -278,7 +315,7 @@ fn a_frame_with_no_changes_does_no_tree_work() {
     assert_eq!((stats.inserted, stats.updated, stats.removed), (0, 0, 0));
     assert!(!stats.static_rebuilt);
     assert_eq!(stats.dynamic_entities + stats.static_entities, 1000);
-    assert!(!app.world().resource::<AccelTrees>().dynamic().needs_refit());
+    assert!(!bvh(app.world().resource::<AccelTrees>()).needs_refit());
 }
 
 #[test]

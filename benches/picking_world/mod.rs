@@ -16,9 +16,9 @@ use common::headless_app;
 /// [`AccelStatic`] (scenery: the flat static tree) instead of leaving it dynamic (the dynamic
 /// tree, as for entities that may move). `snapshot` lets the plugin build a wide ray snapshot
 /// of the dynamic tree once the world has stood still
-/// ([`AccelSettings::ray_snapshot_after_stable_frames`]); without it rays walk the binary
+/// ([`BvhIndexSettings::ray_snapshot_after_stable_frames`]); without it rays walk the binary
 /// dynamic tree, as they do in a moving world that casts fewer rays than it moves entities
-/// ([`AccelSettings::ray_snapshot_rays_per_mover`]). `table` says whether ray casts find
+/// ([`BvhIndexSettings::ray_snapshot_rays_per_mover`]). `table` says whether ray casts find
 /// candidates' meshes through the [`SlotMeshTable`] or the ECS.
 pub fn world(
     n: usize,
@@ -31,8 +31,11 @@ pub fn world(
     // The copy is made in the frame at every size the bench runs, so that the bench can print
     // its cost (by default, above 5,000 dynamic entities it is made on another thread).
     app.insert_resource(AccelSettings {
-        ray_snapshot_after_stable_frames: snapshot.then_some(30),
-        ray_snapshot_in_frame_max_entities: usize::MAX,
+        bvh: BvhIndexSettings {
+            ray_snapshot_after_stable_frames: snapshot.then_some(30),
+            ray_snapshot_in_frame_max_entities: usize::MAX,
+            ..default()
+        },
         ..default()
     });
     // The bench casts its rays outside frames, where the table's default policy, which
@@ -75,7 +78,11 @@ pub fn world(
     // Steady state: the dynamic tree's first rebuild (started in the background once the
     // spawns are in) is installed before anything is timed.
     for _ in 0..500 {
-        let dynamic = app.world().resource::<AccelTrees>().dynamic();
+        let dynamic = app
+            .world()
+            .resource::<AccelTrees>()
+            .dynamic_bvh()
+            .expect("the BVH is the default index");
         if dynamic.is_empty() || (dynamic.rebuild_count() > 0 && !dynamic.rebuild_in_flight()) {
             break;
         }
@@ -115,7 +122,7 @@ fn update_reporting_snapshot(app: &mut App) {
         let world = app.world();
         println!(
             "{} dynamic entities: ray snapshot taken in {:?}",
-            world.resource::<AccelTrees>().dynamic().len(),
+            world.resource::<AccelTrees>().query().dynamic_len(),
             world.resource::<AccelStats>().maintain_time
         );
     }

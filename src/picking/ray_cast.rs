@@ -254,10 +254,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
     /// Runs an overlap traversal and keeps the candidates whose exact world box passes.
     fn overlap(
         &mut self,
-        traverse: impl FnOnce(
-            &accel::dynamic::StaticDynamicPair,
-            &mut dyn FnMut(u32) -> ControlFlow<()>,
-        ),
+        traverse: impl FnOnce(&crate::EntityIndex, &mut dyn FnMut(u32) -> ControlFlow<()>),
         exact: impl Fn(&AccelAabb) -> bool,
     ) -> &[Entity] {
         let trees = &*self.trees;

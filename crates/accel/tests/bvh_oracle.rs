@@ -474,7 +474,8 @@ fn check_tiny_inputs(cfg: &BuildConfig) {
 /// neighbour: PLOC alone would merge one pair per iteration (quadratic, and as deep as the
 /// input is long). The stall guard keeps it fast and shallow; reinsertion chains them (their
 /// SAH optimum), and the depth limit then rebuilds the deep part top-down rather than leave
-/// one huge leaf.
+/// one huge leaf. The build time is printed, not asserted (no timing in tests): a stall shows
+/// as a run of minutes.
 #[test]
 fn ploc_stays_shallow_on_nested_boxes() {
     let n = 200_000;
@@ -500,7 +501,6 @@ fn ploc_stays_shallow_on_nested_boxes() {
                 s.max_leaf_size <= cfg.max_leaf_size as usize,
                 "{split:?}: {s:?}"
             );
-            assert!(secs < 5.0, "{split:?}: {secs:.1} s");
         }
     }
 }

@@ -61,6 +61,7 @@ mod as_index;
 mod config;
 mod handle;
 mod insert;
+mod layered;
 mod node;
 mod optimize;
 mod pair;
@@ -75,6 +76,7 @@ mod validate;
 
 pub use config::DynamicBvhConfig;
 pub use handle::{DynamicBvhError, LeafHandle};
+pub use layered::LayeredIndex;
 pub use optimize::OptimizeReport;
 pub use pair::StaticDynamicPair;
 pub use quality::{MaintainReport, QualityEstimate};

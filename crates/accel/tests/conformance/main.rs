@@ -17,7 +17,7 @@ mod triangles;
 use accel::bvh::SphereBvh;
 use accel::bvh::validate::validate_tree;
 use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
-use accel::dynamic::{DynamicBvh, StaticDynamicPair};
+use accel::dynamic::{DynamicBvh, LayeredIndex, StaticDynamicPair};
 use accel::mesh::{MeshBvh, SpatialSplits};
 use accel::query::{AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind};
 use accel::{Aabb, BuildConfig, Bvh, SplitStrategy};
@@ -146,6 +146,20 @@ fn dynamic_trees_and_the_pair() {
             check_queries(
                 &format!("AnyIndex {kind:?}, {scene}"),
                 &index,
+                &entries,
+                seed,
+            );
+
+            // The same halves as the pair's, the dynamic one of this kind.
+            let static_tree = Bvh::build(&boxes_of(&entries[..half]), &BuildConfig::default());
+            let mut layers = LayeredIndex::new(static_tree, AnyIndex::new(kind));
+            for &(id, b) in &entries[half..] {
+                layers.dynamic_mut().insert(id, b).unwrap();
+            }
+            layers.dynamic_mut().maintain(std::time::Duration::ZERO);
+            check_queries(
+                &format!("LayeredIndex over {kind:?}, {scene}"),
+                &layers,
                 &entries,
                 seed,
             );

@@ -1,0 +1,34 @@
+//! The index over the tracked entities, whatever its structure.
+//!
+//! Slots, their entities and their own spaces ([`AccelTrees`](crate::AccelTrees)) and the
+//! sync know nothing of the structure; they reach it through [`EntityIndex`]. Which structure
+//! holds the moving entities is [`IndexChoice`], set in
+//! [`AccelSettings::index`](crate::AccelSettings::index) and changeable at run time.
+//!
+//! - `entity_index`: the structures, queried as one.
+//! - `bvh_backend`: the BVH's settings, stats and upkeep (its ray snapshot policy).
+//! - `upkeep`: the per-frame maintenance system, and the switch between structures.
+
+mod bvh_backend;
+mod entity_index;
+mod upkeep;
+
+pub use bvh_backend::{BvhIndexSettings, BvhIndexStats};
+pub use entity_index::EntityIndex;
+pub(crate) use upkeep::maintain_index;
+
+use bevy::prelude::*;
+
+/// The structure that holds the moving entities. Static entities
+/// ([`AccelStatic`](crate::AccelStatic)) are always in a static BVH.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default)]
+pub enum IndexChoice {
+    /// A dynamic BVH with fat leaves, fused with the static tree, and a 16-wide snapshot for
+    /// rays ([`BvhIndexSettings`]).
+    #[default]
+    Bvh,
+    /// A flat list: every query tests every moving entity. For a handful of movers, and to
+    /// check the others against.
+    BruteForce,
+}
