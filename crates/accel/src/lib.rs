@@ -11,6 +11,10 @@
 //!   sweep SAH top-down, PLOC bottom-up; leaf size, depth and cost stopping rules).
 //! - [`dynamic`]: the dynamic BVH (insert, remove and update by handle, batched refit, SAH
 //!   insertion with rotations, incremental optimisation, rebuilds) and the static/dynamic pair.
+//! - [`grid`]: the uniform grid over moving boxes (a hashed sparse grid, cell size from the
+//!   entries' density, rays by 3D DDA, each entry reported once per query without shared state).
+//! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
+//!   size gives, O(depth) edits, a move inside its loose cell one box write).
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
 //!   ray hits; box, sphere and point overlap; frustum; k nearest).
 //!
@@ -21,13 +25,17 @@
 pub mod bvh;
 pub mod dynamic;
 pub mod geometry;
+pub mod grid;
 pub mod mesh;
+pub mod octree;
 mod prefetch;
 pub mod query;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
+pub use grid::{GridConfig, GridHandle, UniformGrid};
+pub use octree::{LooseOctree, OctreeConfig, OctreeHandle, Quadtree};
 pub use query::{BoundingTree, NodeVolume, RayHit, SpatialQuery};
 
 /// A seeded stream of floats in `[0, 1)` for the unit tests: the test kit's generator, so

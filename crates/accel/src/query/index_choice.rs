@@ -8,6 +8,8 @@ use super::dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 use super::views::{ViewClassification, ViewMasks};
 use super::{BruteForceIndex, FlatHandle, RayWalk, SpatialQuery};
 use crate::dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
+use crate::grid::{GridHandle, UniformGrid};
+use crate::octree::{LooseOctree, OctreeHandle, Quadtree};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
@@ -19,9 +21,27 @@ pub enum IndexKind {
     /// [`DynamicBvh`]: SAH insertion, fat leaves, refit of moved paths, an optimiser.
     #[default]
     DynamicBvh,
+    /// [`LooseOctree`]: an object at the depth its size gives, a move inside its loose cell
+    /// one box write.
+    Octree,
+    /// [`Quadtree`]: the loose octree's code over x and y, for 2D worlds.
+    Quadtree,
+    /// [`UniformGrid`]: a hashed grid, objects in every cell they overlap, rays by 3D DDA.
+    Grid,
     /// [`BruteForceIndex`]: a flat list, every query a loop. For a handful of objects, and
     /// as the oracle in tests.
     BruteForce,
+}
+
+impl IndexKind {
+    /// Every kind, in declaration order.
+    pub const ALL: [IndexKind; 5] = [
+        IndexKind::DynamicBvh,
+        IndexKind::Octree,
+        IndexKind::Quadtree,
+        IndexKind::Grid,
+        IndexKind::BruteForce,
+    ];
 }
 
 /// One of the dynamic indexes, chosen at run time ([`IndexKind`]).
@@ -31,7 +51,7 @@ pub enum IndexKind {
 /// use accel::{Aabb, Ray, SpatialQuery};
 /// use glam::Vec3A;
 /// use std::time::Duration;
-/// for kind in [IndexKind::DynamicBvh, IndexKind::BruteForce] {
+/// for kind in IndexKind::ALL {
 ///     let mut index = AnyIndex::new(kind);
 ///     let b = Aabb::new(Vec3A::splat(2.0), Vec3A::splat(3.0));
 ///     index.insert(7, b).unwrap();
@@ -50,6 +70,12 @@ pub enum IndexKind {
 pub enum AnyIndex {
     /// A [`DynamicBvh`].
     DynamicBvh(DynamicBvh),
+    /// A [`LooseOctree`].
+    Octree(LooseOctree),
+    /// A [`Quadtree`].
+    Quadtree(Quadtree),
+    /// A [`UniformGrid`].
+    Grid(UniformGrid),
     /// A [`BruteForceIndex`].
     BruteForce(BruteForceIndex),
 }
@@ -60,6 +86,10 @@ pub enum AnyIndex {
 pub enum AnyHandle {
     /// A [`DynamicBvh`] leaf.
     DynamicBvh(LeafHandle),
+    /// A [`LooseOctree`] or [`Quadtree`] entry.
+    Octree(OctreeHandle),
+    /// A [`UniformGrid`] entry.
+    Grid(GridHandle),
     /// A [`BruteForceIndex`] entry.
     BruteForce(FlatHandle),
 }
@@ -75,6 +105,9 @@ macro_rules! on_inner {
     ($index:expr, $inner:ident => $body:expr) => {
         match $index {
             AnyIndex::DynamicBvh($inner) => $body,
+            AnyIndex::Octree($inner) => $body,
+            AnyIndex::Quadtree($inner) => $body,
+            AnyIndex::Grid($inner) => $body,
             AnyIndex::BruteForce($inner) => $body,
         }
     };
@@ -85,6 +118,9 @@ impl AnyIndex {
     pub fn new(kind: IndexKind) -> Self {
         match kind {
             IndexKind::DynamicBvh => Self::DynamicBvh(DynamicBvh::new()),
+            IndexKind::Octree => Self::Octree(LooseOctree::new()),
+            IndexKind::Quadtree => Self::Quadtree(Quadtree::new()),
+            IndexKind::Grid => Self::Grid(UniformGrid::new()),
             IndexKind::BruteForce => Self::BruteForce(BruteForceIndex::new()),
         }
     }
@@ -98,6 +134,9 @@ impl AnyIndex {
     pub fn kind(&self) -> IndexKind {
         match self {
             Self::DynamicBvh(_) => IndexKind::DynamicBvh,
+            Self::Octree(_) => IndexKind::Octree,
+            Self::Quadtree(_) => IndexKind::Quadtree,
+            Self::Grid(_) => IndexKind::Grid,
             Self::BruteForce(_) => IndexKind::BruteForce,
         }
     }
@@ -125,6 +164,9 @@ impl DynamicIndex for AnyIndex {
     fn insert(&mut self, id: u32, bounds: Aabb) -> Result<AnyHandle, IndexError> {
         match self {
             Self::DynamicBvh(tree) => tree.insert(id, bounds).map(AnyHandle::DynamicBvh),
+            Self::Octree(tree) => DynamicIndex::insert(tree, id, bounds).map(AnyHandle::Octree),
+            Self::Quadtree(tree) => DynamicIndex::insert(tree, id, bounds).map(AnyHandle::Octree),
+            Self::Grid(grid) => DynamicIndex::insert(grid, id, bounds).map(AnyHandle::Grid),
             Self::BruteForce(list) => {
                 DynamicIndex::insert(list, id, bounds).map(AnyHandle::BruteForce)
             }
@@ -134,6 +176,9 @@ impl DynamicIndex for AnyIndex {
     fn update(&mut self, handle: AnyHandle, bounds: Aabb) -> Result<bool, IndexError> {
         match (self, handle) {
             (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.update(h, bounds),
+            (Self::Octree(tree), AnyHandle::Octree(h)) => tree.update(h, bounds),
+            (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.update(h, bounds),
+            (Self::Grid(grid), AnyHandle::Grid(h)) => grid.update(h, bounds),
             (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.update(h, bounds),
             _ => Err(IndexError::StaleHandle),
         }
@@ -142,6 +187,9 @@ impl DynamicIndex for AnyIndex {
     fn remove(&mut self, handle: AnyHandle) -> Result<u32, IndexError> {
         match (self, handle) {
             (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.remove(h),
+            (Self::Octree(tree), AnyHandle::Octree(h)) => tree.remove(h),
+            (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.remove(h),
+            (Self::Grid(grid), AnyHandle::Grid(h)) => grid.remove(h),
             (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.remove(h),
             _ => Err(IndexError::StaleHandle),
         }
@@ -150,6 +198,9 @@ impl DynamicIndex for AnyIndex {
     fn id(&self, handle: AnyHandle) -> Option<u32> {
         match (self, handle) {
             (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.id(h),
+            (Self::Octree(tree), AnyHandle::Octree(h)) => tree.id(h),
+            (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.id(h),
+            (Self::Grid(grid), AnyHandle::Grid(h)) => DynamicIndex::id(grid, h),
             (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.id(h),
             _ => None,
         }
@@ -158,6 +209,9 @@ impl DynamicIndex for AnyIndex {
     fn bounds_of(&self, handle: AnyHandle) -> Option<Aabb> {
         match (self, handle) {
             (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.bounds_of(h),
+            (Self::Octree(tree), AnyHandle::Octree(h)) => tree.bounds_of(h),
+            (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.bounds_of(h),
+            (Self::Grid(grid), AnyHandle::Grid(h)) => DynamicIndex::bounds_of(grid, h),
             (Self::BruteForce(list), AnyHandle::BruteForce(h)) => list.bounds_of(h),
             _ => None,
         }

@@ -8,6 +8,8 @@
 //! - [`triangles`]: [`TriangleQuery`] on meshes.
 
 mod edits;
+mod grid;
+mod octree;
 #[path = "../scenes/mod.rs"]
 mod scenes;
 mod spatial;
@@ -137,7 +139,7 @@ fn dynamic_trees_and_the_pair() {
             seed,
         );
 
-        for kind in [IndexKind::DynamicBvh, IndexKind::BruteForce] {
+        for kind in IndexKind::ALL {
             let mut index = AnyIndex::new(kind);
             for &(id, b) in &entries {
                 index.insert(id, b).unwrap();
@@ -185,7 +187,7 @@ fn every_dynamic_index_through_random_edits() {
     for seed in [1, 2, 3] {
         check_edits("DynamicBvh", DynamicBvh::new(), 48, seed);
         check_edits("BruteForceIndex", BruteForceIndex::new(), 48, seed);
-        for kind in [IndexKind::DynamicBvh, IndexKind::BruteForce] {
+        for kind in IndexKind::ALL {
             check_edits(&format!("AnyIndex {kind:?}"), AnyIndex::new(kind), 48, seed);
         }
     }
