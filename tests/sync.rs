@@ -116,14 +116,11 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 
 #[test]
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
-    // The BVH, the flat list, and the index switched between the two every 25 frames.
-    for (index, switch) in [
-        (IndexChoice::Bvh, false),
-        (IndexChoice::BruteForce, false),
-        (IndexChoice::Bvh, true),
-    ] {
-        churn(index, switch);
+    // Every index, and the index switched to the next choice every 25 frames.
+    for index in IndexChoice::ALL {
+        churn(index, false);
     }
+    churn(IndexChoice::Bvh, true);
 }
 
 fn churn(index: IndexChoice, switch: bool) {
@@ -204,10 +201,12 @@ fn churn(index: IndexChoice, switch: bool) {
         }
         if switch && frame % 25 == 24 {
             let mut settings = app.world_mut().resource_mut::<AccelSettings>();
-            settings.index = match settings.index {
-                IndexChoice::Bvh => IndexChoice::BruteForce,
-                IndexChoice::BruteForce => IndexChoice::Bvh,
-            };
+            // Through every choice in turn.
+            let next = IndexChoice::ALL
+                .iter()
+                .position(|&c| c == settings.index)
+                .map_or(0, |i| (i + 1) % IndexChoice::ALL.len());
+            settings.index = IndexChoice::ALL[next];
         }
         app.update();
         check_consistency(&mut app);

@@ -4,7 +4,7 @@
 use super::IndexChoice;
 use accel::dynamic::{DynamicBvh, DynamicBvhConfig, LayeredIndex, StaticDynamicPair};
 use accel::query::views::{ViewClassification, ViewMasks};
-use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, RayWalk};
+use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexStats, RayWalk};
 use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use bevy::math::Vec3A;
 use core::ops::ControlFlow;
@@ -56,10 +56,7 @@ impl EntityIndex {
     pub fn new(choice: IndexChoice, static_tree: Bvh) -> Self {
         match choice {
             IndexChoice::Bvh => Self::Bvh(StaticDynamicPair::new(static_tree, DynamicBvh::new())),
-            IndexChoice::BruteForce => Self::Layered(LayeredIndex::new(
-                static_tree,
-                AnyIndex::new(IndexKind::BruteForce),
-            )),
+            other => Self::Layered(LayeredIndex::new(static_tree, AnyIndex::new(other.kind()))),
         }
     }
 
@@ -67,10 +64,7 @@ impl EntityIndex {
     pub fn choice(&self) -> IndexChoice {
         match self {
             Self::Bvh(_) => IndexChoice::Bvh,
-            Self::Layered(layers) => match layers.dynamic().kind() {
-                IndexKind::DynamicBvh => IndexChoice::Bvh,
-                IndexKind::BruteForce => IndexChoice::BruteForce,
-            },
+            Self::Layered(layers) => IndexChoice::of_kind(layers.dynamic().kind()),
         }
     }
 

@@ -28,7 +28,47 @@ pub enum IndexChoice {
     /// rays ([`BvhIndexSettings`]).
     #[default]
     Bvh,
+    /// A loose octree ([`accel::LooseOctree`]): an entity at the depth its size gives, a move
+    /// inside its loose cell one box write.
+    Octree,
+    /// A loose quadtree over x and y ([`accel::Quadtree`]), for 2D games: sprites and
+    /// `Mesh2d` on the xy plane.
+    Quadtree,
+    /// A hashed uniform grid ([`accel::UniformGrid`]): entities in every cell they overlap,
+    /// rays by 3D DDA.
+    Grid,
     /// A flat list: every query tests every moving entity. For a handful of movers, and to
     /// check the others against.
     BruteForce,
+}
+
+impl IndexChoice {
+    /// Every choice, in declaration order.
+    pub const ALL: [IndexChoice; 5] = [
+        IndexChoice::Bvh,
+        IndexChoice::Octree,
+        IndexChoice::Quadtree,
+        IndexChoice::Grid,
+        IndexChoice::BruteForce,
+    ];
+
+    /// The core's structure behind this choice.
+    pub fn kind(self) -> accel::query::IndexKind {
+        use accel::query::IndexKind;
+        match self {
+            Self::Bvh => IndexKind::DynamicBvh,
+            Self::Octree => IndexKind::Octree,
+            Self::Quadtree => IndexKind::Quadtree,
+            Self::Grid => IndexKind::Grid,
+            Self::BruteForce => IndexKind::BruteForce,
+        }
+    }
+
+    /// The choice that holds the core's structure `kind`.
+    pub fn of_kind(kind: accel::query::IndexKind) -> Self {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.kind() == kind)
+            .unwrap_or_default()
+    }
 }
