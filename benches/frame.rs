@@ -183,7 +183,7 @@ fn build_app(contender: Contender, n: usize, moving_pct: u32, kind: CameraKind) 
         )
     };
     let boxes: Vec<(Vec3, f32)> = (0..n)
-        .map(|i| (place(i, &mut rng), rng.range(0.0, 6.28)))
+        .map(|i| (place(i, &mut rng), rng.range(0.0, std::f32::consts::TAU)))
         .collect();
     let bundle = move |home: Vec3, class: &VisibilityClass| {
         (
@@ -196,7 +196,7 @@ fn build_app(contender: Contender, n: usize, moving_pct: u32, kind: CameraKind) 
     };
     let world = app.world_mut();
     // Movers spread over the whole field: every `stride`-th box.
-    let stride = if movers == 0 { usize::MAX } else { n / movers };
+    let stride = n.checked_div(movers).unwrap_or(usize::MAX);
     let mut moved = 0;
     for (i, &(home, phase)) in boxes.iter().enumerate() {
         if moved < movers && i % stride == 0 {
@@ -232,10 +232,7 @@ fn visible_share(app: &mut App, contender: Contender, n: usize) -> f64 {
     100.0 * visible as f64 / n as f64
 }
 
-fn list<T: std::str::FromStr>(args: &[String], flag: &str, default: &[T]) -> Vec<T>
-where
-    T: Clone,
-{
+fn list<T: std::str::FromStr + Clone>(args: &[String], flag: &str, default: &[T]) -> Vec<T> {
     match args.iter().position(|a| a == flag) {
         Some(i) => args[i + 1]
             .split(',')
