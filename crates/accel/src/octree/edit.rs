@@ -340,8 +340,13 @@ impl<const AXES: usize> LooseTree<AXES> {
     }
 
     fn rewrite_box(&mut self, o: u32, position: u32, b: Aabb) {
-        self.arena.get_mut(o).rewrite_entry(position as usize, b);
-        self.mark_dirty(o);
+        let octant = self.arena.get_mut(o);
+        octant.rewrite_entry(position as usize, b);
+        // Node bounds that still hold the box stay valid (see `refit::OWN_MARGIN`); they are
+        // recomputed, and may shrink, when the octant is next refit for another reason.
+        if !octant.tight.contains_aabb(&b) {
+            self.mark_dirty(o);
+        }
     }
 
     /// Appends an entry to `o`, returning its position.

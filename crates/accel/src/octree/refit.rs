@@ -4,6 +4,14 @@
 use super::cells::NONE;
 use super::tree::LooseTree;
 
+/// How far an octant's node bounds reach past its entries' union, as a fraction of its
+/// cell's half size: a box that moves inside that margin (and inside its loose cell) costs
+/// one box write and no refit. Why: with exact bounds every move of every entry queued its
+/// octant and, through the changed bounds, its ancestors, so a world of small movers paid a
+/// refit per mover per frame (the plugin's whole-frame bench; docs/experiments.md, Loose
+/// octree). This is the dynamic BVH's fat leaf, sized by the cell rather than the box.
+pub(super) const OWN_MARGIN: f32 = 0.5;
+
 impl<const AXES: usize> LooseTree<AXES> {
     /// Makes the tree consistent for queries after edits: each octant an edit touched gets
     /// the union of its entries' boxes (kept by the edits) and its children's bounds as node
@@ -43,7 +51,9 @@ impl<const AXES: usize> LooseTree<AXES> {
                 if !octant.dirty || octant.level != level {
                     continue;
                 }
-                let mut bounds = octant.own;
+                let mut bounds = octant
+                    .own
+                    .expanded(glam::Vec3A::splat(octant.half * OWN_MARGIN));
                 for &child in octant.children() {
                     bounds = bounds.union(&self.arena.get(child).tight);
                 }

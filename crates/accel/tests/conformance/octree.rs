@@ -586,11 +586,16 @@ fn node_bounds_shrink_to_what_is_left() {
     let h = tree.insert(2, outer).unwrap();
     tree.maintain();
     let root = tree.root().unwrap();
-    assert_eq!(tree.node_bounds(root), inner.union(&outer));
+    // Node bounds hold their content with a margin of half an octant's cell at most
+    // (`OWN_MARGIN`; the entries here sit in cells of half size 1 or less).
+    let holds = |bounds: Aabb, content: Aabb| {
+        bounds.contains_aabb(&content) && content.expanded(Vec3A::splat(0.5)).contains_aabb(&bounds)
+    };
+    assert!(holds(tree.node_bounds(root), inner.union(&outer)));
     let moved = Aabb::from_center_half_extents(Vec3A::splat(1.5), Vec3A::splat(0.25));
     assert_eq!(tree.update(h, moved), Ok(true));
     tree.maintain();
     let root = tree.root().unwrap();
-    assert_eq!(tree.node_bounds(root), inner.union(&moved));
+    assert!(holds(tree.node_bounds(root), inner.union(&moved)));
     tree.validate().unwrap();
 }
