@@ -20,6 +20,9 @@
 mod common;
 #[path = "common/dynamic_workload.rs"]
 mod dynamic_workload;
+#[path = "common/moving_frames.rs"]
+mod moving_frames;
+use moving_frames::{frames, play};
 
 use accel::grid::{GridConfig, GridHandle, UniformGrid};
 use accel::query::DynamicIndex;
@@ -32,9 +35,6 @@ use std::hint::black_box;
 use std::time::Duration;
 
 const N: usize = 100_000;
-/// Distinct frames of moves; played forward, then backward with the steps negated, so the
-/// boxes oscillate about where they started instead of drifting.
-const FRAMES: usize = 8;
 /// The fixed cell side of the second grid, in world units.
 const SMALL_CELL: f32 = 4.0;
 
@@ -57,37 +57,6 @@ fn grid(boxes: &[Aabb], config: GridConfig) -> (UniformGrid, Vec<GridHandle>) {
         .collect();
     grid.maintain(Duration::ZERO);
     (grid, handles)
-}
-
-/// The moves of each frame: a tenth of the boxes, each with its step.
-fn frames() -> Vec<Vec<(usize, Vec3A)>> {
-    let mut rng = Rng::new(2);
-    (0..FRAMES)
-        .map(|_| {
-            (0..N / 10)
-                .map(|_| (rng.below(N), rng.vec3a(-1.0, 1.0)))
-                .collect()
-        })
-        .collect()
-}
-
-/// Plays frame `i` of `frames` on `boxes`, calling `update` for each moved box.
-fn play(
-    frames: &[Vec<(usize, Vec3A)>],
-    i: usize,
-    boxes: &mut [Aabb],
-    mut update: impl FnMut(usize, Aabb),
-) {
-    let sign = if (i / FRAMES).is_multiple_of(2) {
-        1.0
-    } else {
-        -1.0
-    };
-    for &(b, step) in &frames[i % FRAMES] {
-        let d = step * sign;
-        boxes[b] = Aabb::new(boxes[b].min + d, boxes[b].max + d);
-        update(b, boxes[b]);
-    }
 }
 
 fn frame_benches(c: &mut Criterion, boxes: &[Aabb]) {

@@ -18,6 +18,9 @@
 mod common;
 #[path = "common/dynamic_workload.rs"]
 mod dynamic_workload;
+#[path = "common/moving_frames.rs"]
+mod moving_frames;
+use moving_frames::{frames, play};
 
 use accel::octree::{LooseOctree, OctreeConfig, OctreeHandle};
 use accel::query::DynamicIndex;
@@ -30,9 +33,6 @@ use std::hint::black_box;
 use std::time::Duration;
 
 const N: usize = 100_000;
-/// Distinct frames of moves; played forward, then backward with the steps negated, so the
-/// boxes oscillate about where they started instead of drifting.
-const FRAMES: usize = 8;
 
 /// An octree over the workload's boxes, ids the indices.
 fn octree(boxes: &[Aabb], looseness: f32) -> (LooseOctree, Vec<OctreeHandle>) {
@@ -45,37 +45,6 @@ fn octree(boxes: &[Aabb], looseness: f32) -> (LooseOctree, Vec<OctreeHandle>) {
         .collect();
     tree.maintain();
     (tree, handles)
-}
-
-/// The moves of each frame: a tenth of the boxes, each with its step.
-fn frames() -> Vec<Vec<(usize, Vec3A)>> {
-    let mut rng = Rng::new(2);
-    (0..FRAMES)
-        .map(|_| {
-            (0..N / 10)
-                .map(|_| (rng.below(N), rng.vec3a(-1.0, 1.0)))
-                .collect()
-        })
-        .collect()
-}
-
-/// Plays frame `i` of `frames` on `boxes`, calling `update` for each moved box.
-fn play(
-    frames: &[Vec<(usize, Vec3A)>],
-    i: usize,
-    boxes: &mut [Aabb],
-    mut update: impl FnMut(usize, Aabb),
-) {
-    let sign = if (i / FRAMES).is_multiple_of(2) {
-        1.0
-    } else {
-        -1.0
-    };
-    for &(b, step) in &frames[i % FRAMES] {
-        let d = step * sign;
-        boxes[b] = Aabb::new(boxes[b].min + d, boxes[b].max + d);
-        update(b, boxes[b]);
-    }
 }
 
 fn frame_benches(c: &mut Criterion, boxes: &[Aabb]) {
