@@ -20,7 +20,8 @@
 //!
 //! Prints one table row per scene: median frame times, the whole-frame speed-up (bevy /
 //! accel) and the speed-up of what each pays over the floor (the culling, and for us the
-//! trees' upkeep and the ray).
+//! trees' upkeep and the ray); and, on stderr, where our frame goes (the plugin's own
+//! timings of its sync, maintenance and culling).
 
 use accel_testkit::Rng;
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -298,14 +299,32 @@ fn main() {
                     }
                 }
                 let mut times = vec![Vec::with_capacity(frames); apps.len()];
+                let mut parts = vec![[const { Vec::new() }; 3]; apps.len()];
                 for _ in 0..frames {
-                    for (app, t) in apps.iter_mut().zip(&mut times) {
+                    for ((app, t), part) in apps.iter_mut().zip(&mut times).zip(&mut parts) {
                         let start = Instant::now();
                         app.update();
                         t.push(start.elapsed());
+                        if let Some(stats) = app.world().get_resource::<AccelStats>() {
+                            part[0].push(stats.sync_time);
+                            part[1].push(stats.maintain_time);
+                            part[2].push(app.world().resource::<CullingStats>().time);
+                        }
                     }
                 }
                 let medians: Vec<Duration> = times.into_iter().map(median).collect();
+                let ms = |d: Duration| d.as_secs_f64() * 1e3;
+                for (c, part) in contenders.iter().zip(parts).skip(2) {
+                    let [sync, maintain, culling] = part.map(median);
+                    eprintln!(
+                        "{n} {pct}% {kind:?} {}: sync {:.2} ms, maintain {:.2} ms, culling \
+                         {:.2} ms (medians)",
+                        c.label(),
+                        ms(sync),
+                        ms(maintain),
+                        ms(culling)
+                    );
+                }
                 let (floor, bevy) = (medians[0], medians[1]);
                 let bevy_share = visible_share(&mut apps[1], Contender::Bevy, n);
                 for (k, &c) in contenders.iter().enumerate().skip(2) {

@@ -80,7 +80,8 @@ pub(crate) fn cull_views_with_trees(
     let mut s = CullingStats::default();
     let ranges = ranges.as_deref();
     let tracked = trees.len().max(1) as f32;
-    if trees.is_changed() {
+    let trees_changed = trees.is_changed();
+    if trees_changed {
         walks.values_mut().for_each(ViewWalk::forget);
     }
     for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in
@@ -99,8 +100,12 @@ pub(crate) fn cull_views_with_trees(
                 .is_some_and(|f| *f > FLAT_PASS_ABOVE)
         {
             s.flat_views += 1;
-            // Fresh trees settle most entities' frustum tests (see `TreeVerdicts`).
-            let verdicts = (untracked.trees_current() && !no_cpu_culling_view).then(|| {
+            // Fresh trees settle most entities' frustum tests (see `TreeVerdicts`), but only
+            // over trees that held still this frame: a walk of trees that changed (movers)
+            // for a view that sees most of the world cost more than the tests it saved, so
+            // such a view takes Bevy's own pass (BENCHMARKS.md, Whole frame).
+            let use_trees = untracked.trees_current() && !no_cpu_culling_view && !trees_changed;
+            let verdicts = use_trees.then(|| {
                 let planes = tree_planes(frustum);
                 let walk = walks.entry(view).or_default();
                 if walk.walked(&planes, WalkForm::Bits) {
