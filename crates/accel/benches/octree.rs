@@ -18,19 +18,16 @@
 mod common;
 #[path = "common/dynamic_workload.rs"]
 mod dynamic_workload;
-#[path = "common/moving_frames.rs"]
-mod moving_frames;
-use moving_frames::{frames, play};
+#[path = "common/index_contest.rs"]
+mod index_contest;
+use index_contest::{bench_dynamic_bvh_frames, box_hits, frames, frustum_ids, play, ray_hits};
 
 use accel::octree::{LooseOctree, OctreeConfig, OctreeHandle};
-use accel::query::DynamicIndex;
-use accel::{Aabb, Containment, Frustum, Ray, SpatialQuery};
+use accel::{Aabb, Ray};
 use accel_testkit::Rng;
-use core::ops::ControlFlow;
 use criterion::Criterion;
 use glam::Vec3A;
 use std::hint::black_box;
-use std::time::Duration;
 
 const N: usize = 100_000;
 
@@ -65,64 +62,8 @@ fn frame_benches(c: &mut Criterion, boxes: &[Aabb]) {
         });
         tree.validate().unwrap();
     }
-    for refit_only in [false, true] {
-        let (mut tree, handles) = dynamic_workload::built_tree(boxes);
-        let mut now = boxes.to_vec();
-        let mut i = 0;
-        let name = if refit_only {
-            "dynamic_bvh_refit_only"
-        } else {
-            "dynamic_bvh_maintain"
-        };
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                play(&frames, i, &mut now, |j, bx| {
-                    black_box(tree.update(handles[j], bx).unwrap());
-                });
-                i += 1;
-                if refit_only {
-                    black_box(DynamicIndex::maintain(&mut tree, Duration::ZERO).refit_nodes)
-                } else {
-                    black_box(tree.maintain().refit_nodes)
-                }
-            })
-        });
-    }
+    bench_dynamic_bvh_frames(&mut g, boxes, &frames);
     g.finish();
-}
-
-/// The ids a frustum query keeps after the exact test, sorted.
-fn frustum_ids<S: SpatialQuery>(tree: &S, boxes: &[Aabb], frustum: &Frustum) -> Vec<u32> {
-    let mut ids = Vec::new();
-    tree.for_each_in_frustum(frustum, |id, c| {
-        if c == Containment::Inside || frustum.intersects_aabb(&boxes[id as usize]) {
-            ids.push(id);
-        }
-    });
-    ids.sort_unstable();
-    ids
-}
-
-/// How many boxes overlap each query box, summed.
-fn box_hits<S: SpatialQuery>(tree: &S, boxes: &[Aabb], queries: &[Aabb]) -> usize {
-    let mut hits = 0;
-    for q in queries {
-        tree.for_each_overlapping_aabb(q, |id| {
-            hits += usize::from(boxes[id as usize].intersects_aabb(q));
-            ControlFlow::Continue(())
-        });
-    }
-    hits
-}
-
-/// The closest hit distance of each ray.
-fn ray_hits<S: SpatialQuery>(tree: &S, boxes: &[Aabb], rays: &[Ray]) -> Vec<Option<f32>> {
-    rays.iter()
-        .map(|r| {
-            tree.cast_ray(r, |id, r| r.intersect_aabb(&boxes[id as usize]))
-                .map(|h| h.t)
-        })
-        .collect()
 }
 
 fn query_benches(c: &mut Criterion, boxes: &[Aabb]) {

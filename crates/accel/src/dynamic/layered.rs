@@ -150,50 +150,42 @@ fn merge_nearest(a: Vec<(u32, f32)>, b: Vec<(u32, f32)>, k: usize) -> Vec<(u32, 
     out
 }
 
+/// Runs a query that a visitor can stop on the static layer, then on the dynamic one unless
+/// the visitor stopped it.
+macro_rules! static_then_dynamic {
+    ($layers:ident, $method:ident, $arg:expr, $visit:ident) => {{
+        let mut stopped = false;
+        $layers.static_tree.$method($arg, |p| {
+            let flow = $visit(p);
+            stopped = flow.is_break();
+            flow
+        });
+        if !stopped {
+            $layers.dynamic.$method($arg, $visit);
+        }
+    }};
+}
+
 impl<D: DynamicIndex> SpatialQuery for LayeredIndex<D> {
     fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        let mut stopped = false;
-        self.static_tree.for_each_overlapping_aabb(aabb, |p| {
-            let flow = visit(p);
-            stopped = flow.is_break();
-            flow
-        });
-        if !stopped {
-            self.dynamic.for_each_overlapping_aabb(aabb, visit);
-        }
+        static_then_dynamic!(self, for_each_overlapping_aabb, aabb, visit);
     }
 
     fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        let mut stopped = false;
-        self.static_tree.for_each_overlapping_sphere(sphere, |p| {
-            let flow = visit(p);
-            stopped = flow.is_break();
-            flow
-        });
-        if !stopped {
-            self.dynamic.for_each_overlapping_sphere(sphere, visit);
-        }
+        static_then_dynamic!(self, for_each_overlapping_sphere, sphere, visit);
     }
 
     fn for_each_containing_point<F>(&self, point: Vec3A, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        let mut stopped = false;
-        self.static_tree.for_each_containing_point(point, |p| {
-            let flow = visit(p);
-            stopped = flow.is_break();
-            flow
-        });
-        if !stopped {
-            self.dynamic.for_each_containing_point(point, visit);
-        }
+        static_then_dynamic!(self, for_each_containing_point, point, visit);
     }
 
     fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
