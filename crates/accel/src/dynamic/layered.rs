@@ -7,6 +7,7 @@
 //! hit found in the static layer shortens the ray the dynamic layer walks, so the order still
 //! prunes; the k-nearest query merges the two layers' answers.
 
+use super::PreparedStatic;
 use super::pair_rays::wide_for_rays;
 use crate::bvh::wide::Bvh16;
 use crate::query::views::{ViewClassification, ViewMasks};
@@ -65,10 +66,22 @@ impl<D: DynamicIndex> LayeredIndex<D> {
         &self.static_tree
     }
 
-    /// Replaces the static tree, returning the old one.
+    /// Replaces the static tree, returning the old one. Derives the tree's ray form here,
+    /// O(n); [`Self::set_static_prepared`] takes it made elsewhere.
     pub fn set_static(&mut self, static_tree: Bvh) -> Bvh {
         self.static_wide = wide_for_rays(&static_tree);
         core::mem::replace(&mut self.static_tree, static_tree)
+    }
+
+    /// Replaces the static tree with one prepared ahead (on another thread, say), returning
+    /// the old one with its ray form (and no spans: this index keeps none), so that a caller
+    /// can free it off the frame too: O(1).
+    pub fn set_static_prepared(&mut self, prepared: PreparedStatic) -> PreparedStatic {
+        PreparedStatic {
+            wide: core::mem::replace(&mut self.static_wide, prepared.wide),
+            ranges: Vec::new(),
+            tree: core::mem::replace(&mut self.static_tree, prepared.tree),
+        }
     }
 
     /// The dynamic index.

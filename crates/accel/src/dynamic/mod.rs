@@ -66,6 +66,7 @@ mod node;
 mod optimize;
 mod pair;
 mod pair_rays;
+mod prepared_static;
 mod quality;
 mod ray_snapshot;
 mod refit;
@@ -79,6 +80,7 @@ pub use handle::{DynamicBvhError, LeafHandle};
 pub use layered::LayeredIndex;
 pub use optimize::OptimizeReport;
 pub use pair::StaticDynamicPair;
+pub use prepared_static::PreparedStatic;
 pub use quality::{MaintainReport, QualityEstimate};
 pub use validate::DynamicValidationError;
 

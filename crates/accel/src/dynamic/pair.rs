@@ -12,6 +12,7 @@
 //! dropped at insertions and removals; how rays walk the pair, and the snapshot's upkeep, are
 //! in `pair_rays`.
 
+use super::PreparedStatic;
 use super::pair_rays::wide_for_rays;
 use super::ray_snapshot::RaySnapshot;
 use super::{DynamicBvh, DynamicBvhError, LeafHandle, MaintainReport};
@@ -92,11 +93,22 @@ impl StaticDynamicPair {
         &self.static_tree
     }
 
-    /// Replaces the static tree, returning the old one.
+    /// Replaces the static tree, returning the old one. Derives the tree's ray form and
+    /// spans here, O(n); [`Self::set_static_prepared`] takes them made elsewhere.
     pub fn set_static(&mut self, static_tree: Bvh) -> Bvh {
-        self.static_wide = wide_for_rays(&static_tree);
-        self.static_ranges = static_tree.subtree_ranges();
-        core::mem::replace(&mut self.static_tree, static_tree)
+        self.set_static_prepared(PreparedStatic::new(static_tree))
+            .tree
+    }
+
+    /// Replaces the static tree with one prepared ahead (on another thread, say), returning
+    /// the old one with its tables: O(1). Why whole: freeing a large tree's arrays takes
+    /// milliseconds, which a caller may rather spend off the frame too.
+    pub fn set_static_prepared(&mut self, prepared: PreparedStatic) -> PreparedStatic {
+        PreparedStatic {
+            wide: core::mem::replace(&mut self.static_wide, prepared.wide),
+            ranges: core::mem::replace(&mut self.static_ranges, prepared.ranges),
+            tree: core::mem::replace(&mut self.static_tree, prepared.tree),
+        }
     }
 
     /// The dynamic tree.
