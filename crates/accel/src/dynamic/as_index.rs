@@ -1,8 +1,10 @@
 //! The dynamic BVH behind the [`DynamicIndex`] interface.
 
+use super::node::NULL;
 use super::{DynamicBvh, LeafHandle};
 use crate::Aabb;
-use crate::query::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+use crate::query::{DynamicIndex, IndexError, IndexStats, NodeView, UpkeepReport};
+use core::ops::{ControlFlow, RangeInclusive};
 use std::time::Duration;
 
 impl DynamicIndex for DynamicBvh {
@@ -58,5 +60,20 @@ impl DynamicIndex for DynamicBvh {
             memory_bytes: self.memory_bytes(),
             quality_ratio: self.quality().fresh_estimate.map(|_| self.quality().ratio),
         }
+    }
+
+    /// Every node, as [`visit_tree_nodes`](crate::query::visit_tree_nodes) walks the tree:
+    /// breadth first, `depth` the edges from the root (0), a leaf's bounds its *fat* box (the
+    /// tight box grown by the margin, what queries test) with `entries` 1, an internal
+    /// node's the union of its children's with `entries` 0. Before [`refit`](DynamicBvh::refit)
+    /// the boxes are shown as they are: moved leaves' new fat boxes under ancestors not yet
+    /// grown to them.
+    fn visit_nodes(
+        &self,
+        depths: RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
+        let root = (self.root != NULL).then_some(self.root);
+        crate::query::visit_levels(self, root, &depths, visit)
     }
 }

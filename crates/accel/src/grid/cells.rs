@@ -56,6 +56,12 @@ pub(super) struct Cell {
 }
 
 impl Cell {
+    /// How many entries the cell holds.
+    #[inline]
+    pub fn item_count(&self) -> u32 {
+        self.len
+    }
+
     /// The items, in place and spilled.
     #[inline]
     pub fn items(&self) -> impl Iterator<Item = u32> + '_ {

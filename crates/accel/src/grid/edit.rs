@@ -7,7 +7,8 @@ use super::lattice::{CellRange, Lattice};
 use super::slots::{GridHandle, IN_CELLS};
 use super::uniform::{UniformGrid, valid_bounds};
 use crate::Aabb;
-use crate::query::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+use crate::query::{DynamicIndex, IndexError, IndexStats, NodeView, UpkeepReport};
+use core::ops::{ControlFlow, RangeInclusive};
 use std::time::Duration;
 
 /// A re-size that would change the cell side by less than this fraction is skipped: it
@@ -239,5 +240,41 @@ impl DynamicIndex for UniformGrid {
             memory_bytes: self.memory_bytes(),
             quality_ratio: None,
         }
+    }
+
+    /// The grid has no hierarchy: every non-empty cell is a root at depth 0, in no
+    /// particular order, its bounds the cell's cube (padded by a few hundred ulps against
+    /// rounding, as the queries see it; the outermost cells of the lattice, at 2^30 cells
+    /// from the origin, reach to infinity), `leaf` true and `entries` the entries
+    /// overlapping it: an entry over several cells is counted in each. Then every entry of
+    /// the oversize list (which every query tests whole) at depth 1, after all the cells,
+    /// its bounds its own box and `entries` 1. The depth-0 count is
+    /// [`index_stats`](DynamicIndex::index_stats)' `nodes`.
+    fn visit_nodes(
+        &self,
+        depths: RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
+        if depths.contains(&0) {
+            for (key, cell) in self.cells.iter() {
+                visit(NodeView {
+                    bounds: self.lattice.world_box(&CellRange::single(key)),
+                    depth: 0,
+                    leaf: true,
+                    entries: cell.item_count(),
+                })?;
+            }
+        }
+        if depths.contains(&1) {
+            for &slot in &self.oversize {
+                visit(NodeView {
+                    bounds: self.slots.entries[slot as usize].bounds,
+                    depth: 1,
+                    leaf: true,
+                    entries: 1,
+                })?;
+            }
+        }
+        ControlFlow::Continue(())
     }
 }

@@ -3,9 +3,9 @@
 
 use super::dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 use super::views::{ViewClassification, ViewMasks};
-use super::{BoundingTree, RayWalk, SpatialQuery};
+use super::{BoundingTree, NodeView, RayWalk, SpatialQuery};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
-use core::ops::ControlFlow;
+use core::ops::{ControlFlow, RangeInclusive};
 use glam::Vec3A;
 use std::time::Duration;
 
@@ -184,6 +184,19 @@ impl DynamicIndex for BruteForceIndex {
                 + self.free_slots.capacity() * 4,
             quality_ratio: None,
         }
+    }
+
+    /// The list keeps no node, and no box over its entries: it is shown as what
+    /// [`index_stats`](DynamicIndex::index_stats) counts and its [`BoundingTree`] view
+    /// walks, one leaf at depth 0 holding every entry, its bounds the union of the boxes
+    /// (computed for the visit, a pass over them). Nothing when the list is empty or 0 is
+    /// not in `depths`.
+    fn visit_nodes(
+        &self,
+        depths: RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
+        super::visit_tree_nodes(self, depths, visit)
     }
 }
 

@@ -1,10 +1,11 @@
 //! The interface of an index that follows moving objects: insert, update and remove by
 //! handle, and per-frame upkeep.
 
-use super::SpatialQuery;
+use super::{NodeView, SpatialQuery};
 use crate::Aabb;
 use core::fmt;
 use core::hash::Hash;
+use core::ops::{ControlFlow, RangeInclusive};
 use std::time::Duration;
 
 /// Why an edit of a [`DynamicIndex`] was refused. The index is unchanged when one is
@@ -135,4 +136,53 @@ pub trait DynamicIndex: SpatialQuery {
 
     /// Shape and cost, without a walk.
     fn index_stats(&self) -> IndexStats;
+
+    /// Calls `visit` for each node of the structure whose depth lies in `depths`, shallowest
+    /// first (every node of one depth before any deeper one), for debug overlays. The walk
+    /// stops as soon as `visit` breaks, and returns [`ControlFlow::Break`] then.
+    ///
+    /// Nothing below `depths.end()` is read, so the cost follows what is drawn: an overlay
+    /// with a line budget keeps the top of the tree by breaking once it is spent. An empty
+    /// range or an empty index visits nothing. What a node and its depth are is each
+    /// structure's own, documented on its implementation (see [`NodeView`]); in short:
+    /// - [`DynamicBvh`](crate::DynamicBvh): every node with its fat box, depth the edges from
+    ///   the root;
+    /// - [`LooseOctree`](crate::LooseOctree) and [`Quadtree`](crate::Quadtree): every octant
+    ///   in use with its loose cell, depth the levels below the root;
+    /// - [`UniformGrid`](crate::UniformGrid): every non-empty cell at depth 0, every
+    ///   oversize entry at depth 1;
+    /// - [`BruteForceIndex`](super::BruteForceIndex): the list as one leaf at depth 0.
+    ///
+    /// Bounds are those the structure holds: after edits, call [`maintain`](Self::maintain)
+    /// first for bounds that contain what they hold.
+    ///
+    /// ```
+    /// use accel::query::{AnyIndex, DynamicIndex, IndexKind};
+    /// use accel::Aabb;
+    /// use core::ops::ControlFlow;
+    /// use glam::Vec3A;
+    /// use std::time::Duration;
+    ///
+    /// for kind in IndexKind::ALL {
+    ///     let mut index = AnyIndex::new(kind);
+    ///     for i in 0..100 {
+    ///         let p = Vec3A::new(i as f32 * 2.0, (i % 7) as f32, 0.0);
+    ///         index.insert(i, Aabb::new(p, p + 0.5)).unwrap();
+    ///     }
+    ///     index.maintain(Duration::ZERO);
+    ///     // At most 16 boxes of the top two levels, shallowest first.
+    ///     let mut lines = Vec::new();
+    ///     index.visit_nodes(0..=1, &mut |node| {
+    ///         lines.push((node.depth, node.bounds));
+    ///         if lines.len() == 16 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+    ///     });
+    ///     assert!(!lines.is_empty() && lines.len() <= 16);
+    ///     assert!(lines.windows(2).all(|w| w[0].0 <= w[1].0 && w[1].0 <= 1));
+    /// }
+    /// ```
+    fn visit_nodes(
+        &self,
+        depths: RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()>;
 }

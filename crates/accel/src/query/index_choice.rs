@@ -6,12 +6,12 @@
 
 use super::dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 use super::views::{ViewClassification, ViewMasks};
-use super::{BruteForceIndex, FlatHandle, RayWalk, SpatialQuery};
+use super::{BruteForceIndex, FlatHandle, NodeView, RayWalk, SpatialQuery};
 use crate::dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 use crate::grid::{GridHandle, UniformGrid};
 use crate::octree::{LooseOctree, OctreeHandle, Quadtree};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
-use core::ops::ControlFlow;
+use core::ops::{ControlFlow, RangeInclusive};
 use glam::Vec3A;
 use std::time::Duration;
 
@@ -231,6 +231,15 @@ impl DynamicIndex for AnyIndex {
 
     fn index_stats(&self) -> IndexStats {
         on_inner!(self, inner => inner.index_stats())
+    }
+
+    /// The chosen structure's nodes, as its own implementation gives them.
+    fn visit_nodes(
+        &self,
+        depths: RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
+        on_inner!(self, inner => inner.visit_nodes(depths, visit))
     }
 }
 

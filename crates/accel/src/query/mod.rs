@@ -11,7 +11,10 @@
 //! - [`RayWalk`]: how a structure visits what a ray reaches; the closest, any and all hit
 //!   queries are built on it ([`ray_walk`]).
 //! - [`DynamicIndex`]: an index over moving boxes (insert, update and remove by handle,
-//!   per-frame upkeep with a budget, stats), and [`AnyIndex`], the one chosen at run time.
+//!   per-frame upkeep with a budget, stats, its nodes by depth for overlays), and
+//!   [`AnyIndex`], the one chosen at run time.
+//! - [`NodeView`] and [`visit_tree_nodes`]: the nodes of any [`BoundingTree`] level by level,
+//!   as [`DynamicIndex::visit_nodes`] gives those of a dynamic index.
 //! - [`TriangleQuery`]: exact ray hits and overlap on one mesh's triangles.
 //! - [`BruteForceIndex`] and [`BruteForceMesh`]: flat lists answering every query by testing
 //!   everything, the oracles of the conformance suite (`crates/accel/tests/conformance`),
@@ -21,6 +24,7 @@ mod brute_force;
 mod brute_force_mesh;
 mod dynamic_index;
 mod index_choice;
+mod nodes;
 pub mod ray_walk;
 mod stack;
 mod tree;
@@ -33,6 +37,8 @@ pub use brute_force::{BruteForceIndex, FlatHandle};
 pub use brute_force_mesh::BruteForceMesh;
 pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
+pub use nodes::{NodeView, visit_tree_nodes};
+pub(crate) use nodes::{count as node_entry_count, visit_levels};
 pub use ray_walk::RayWalk;
 pub(crate) use stack::TraversalStack;
 pub use tree::{BoundingTree, Subtree};

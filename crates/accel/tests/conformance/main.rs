@@ -6,9 +6,11 @@
 //!   pair, the run-time choice, the oracle itself).
 //! - [`edits`]: [`DynamicIndex`] through runs of inserts, moves, removals and refused edits.
 //! - [`triangles`]: [`TriangleQuery`] on meshes.
+//! - [`nodes`]: the nodes every structure shows a debug overlay, by depth.
 
 mod edits;
 mod grid;
+mod nodes;
 mod octree;
 #[path = "../scenes/mod.rs"]
 mod scenes;
