@@ -45,11 +45,13 @@ mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
 pub mod index;
+mod local_frame;
 #[cfg(feature = "picking")]
 mod meshes;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod prefetch;
+mod scenery;
 mod settings;
 mod stats;
 mod sync;

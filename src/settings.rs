@@ -30,6 +30,16 @@ pub struct AccelSettings {
     /// Time the dynamic index may spend per frame improving itself (the BVH's optimiser), in
     /// microseconds.
     pub upkeep_budget_micros: u32,
+    /// Static sets up to this many entities get their static tree rebuilt in the frame that
+    /// changes them; larger ones build it off the frame on Bevy's async compute pool, and
+    /// hold the static entities spawned meanwhile in the dynamic index (see
+    /// [`AccelTrees::static_waiting_len`](crate::AccelTrees::static_waiting_len)), so that
+    /// streaming scenery in or out never stalls a frame by a whole build. A first load, or
+    /// one that more than doubles the static set, is built in its frame whatever this says.
+    /// The default, 0, sends every other rebuild off the frame: even a level of a thousand
+    /// entities streamed its frames faster so (BENCHMARKS.md, Static scenery streaming).
+    /// Raise it for tests that want the static tree complete after each update.
+    pub static_rebuild_in_frame_up_to: usize,
     /// The BVH backend's settings, read while [`index`](Self::index) is
     /// [`IndexChoice::Bvh`].
     pub bvh: BvhIndexSettings,
@@ -43,6 +53,7 @@ impl Default for AccelSettings {
             watch_static_motion: false,
             index: IndexChoice::default(),
             upkeep_budget_micros: 500,
+            static_rebuild_in_frame_up_to: 0,
             bvh: BvhIndexSettings::default(),
         }
     }

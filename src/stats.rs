@@ -18,8 +18,13 @@ pub struct AccelStats {
     pub removed: usize,
     /// Entities currently left out for a bad transform or box.
     pub rejected: usize,
-    /// True when the static tree was rebuilt this frame.
+    /// True when a new static tree was swapped in this frame (built in the frame or off it).
     pub static_rebuilt: bool,
+    /// Static entities waiting in the dynamic index for the static tree being built off the
+    /// frame (or the next one).
+    pub static_waiting: usize,
+    /// Whether a static tree is being built off the frame.
+    pub static_build_in_flight: bool,
     /// Time spent applying inserts, updates and removals.
     pub sync_time: Duration,
     /// Time spent refitting, optimising and (maybe) rebuilding the dynamic tree.
@@ -83,6 +88,8 @@ pub(crate) fn publish_stats(
         let index = trees.query();
         stats.dynamic_entities = index.dynamic_len();
         stats.static_entities = trees.static_len();
+        stats.static_waiting = trees.static_waiting_len();
+        stats.static_build_in_flight = trees.static_build_in_flight();
         stats.index = index.choice();
         stats.dynamic_index = index.dynamic_stats();
     }

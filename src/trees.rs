@@ -1,48 +1,14 @@
 //! The trees over the world's entities, and the map between tree slots and entities.
 
 use crate::index::{EntityIndex, IndexChoice};
+pub use crate::local_frame::LocalFrame;
 use crate::prefetch::prefetch_all;
+use crate::scenery::{StaticScenery, StaticSwap};
 use accel::dynamic::DynamicBvh;
 use accel::query::{AnyHandle, IndexError};
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
-use bevy::math::Affine3A;
 use bevy::prelude::*;
 use core::sync::atomic::{AtomicU32, Ordering};
-
-/// An entity's own space as the trees last saw it: what an exact ray test needs once a ray
-/// has reached the entity's world box.
-///
-/// Kept by slot, next to the world boxes, because a ray's candidates are scattered through the
-/// ECS tables: reading the `GlobalTransform` and `Aabb` rows and inverting the transform for
-/// each candidate cost three cache misses and an inversion (perf on the picking bench put the
-/// transform read alone at a tenth of a ray). Written by the sync system whenever it places
-/// the entity, so it is as current as the trees: a `GlobalTransform` edited after the sync
-/// (by hand, in `PostUpdate`) is seen from the next frame, as the trees' boxes are.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LocalFrame {
-    /// World to the entity's space: the inverse of its `GlobalTransform`.
-    pub local_from_world: Affine3A,
-    /// The entity's `Aabb`, in its own space.
-    pub local_bounds: Aabb,
-}
-
-impl LocalFrame {
-    const NONE: Self = Self {
-        local_from_world: Affine3A::IDENTITY,
-        local_bounds: Aabb::EMPTY,
-    };
-
-    /// The entity's space to world: the entity's `GlobalTransform` as the sync saw it, taken
-    /// back from its inverse (to within rounding).
-    ///
-    /// Computed on demand, not stored: a ray needs it only for the hits it reports, and a
-    /// second affine in the slot record would make it three cache lines, for the sync to write
-    /// and every candidate to read. Reading the `GlobalTransform` row instead costs a cache
-    /// miss per candidate.
-    pub fn world_from_local(&self) -> Affine3A {
-        self.local_from_world.inverse()
-    }
-}
 
 /// Where a tracked entity lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,6 +17,9 @@ pub enum TreeSlot {
     Dynamic(AnyHandle),
     /// In the static tree.
     Static,
+    /// Static, and held in the dynamic index under this handle until the next static tree,
+    /// built off the frame, takes it in (see [`AccelTrees::static_waiting_len`]).
+    StaticWaiting(AnyHandle),
 }
 
 /// The static tree's build. A primitive here is an entity: testing one reads its slot entry
@@ -120,11 +89,6 @@ impl SlotEntry {
     #[inline]
     fn bounds(&self) -> Aabb {
         Aabb::new(Vec3A::from_array(self.min), Vec3A::from_array(self.max))
-    }
-
-    fn set_bounds(&mut self, bounds: Aabb) {
-        self.min = bounds.min.to_array();
-        self.max = bounds.max.to_array();
     }
 }
 
@@ -199,9 +163,10 @@ pub struct AccelTrees {
     free_slots: Vec<u32>,
     /// Slots handed to an entity since the last sync began (see [`Self::assigned_slots`]).
     assigned_slots: Vec<u32>,
-    /// Static boxes by slot (empty for slots that are not static), the static tree's input.
-    static_bounds: Vec<Aabb>,
-    static_dirty: bool,
+    /// The static set wanted, and the build that makes it the static tree.
+    scenery: StaticScenery,
+    /// Tracked entities in [`TreeSlot::StaticWaiting`].
+    static_waiting: usize,
     /// Rays cast through `AccelRayCast` (and other users of [`Self::count_rays`]) since the
     /// last maintenance: what decides whether the dynamic tree's ray snapshot is worth refitting.
     rays_cast: AtomicU32,
@@ -319,7 +284,6 @@ impl AccelTrees {
         } else {
             self.slots.push(entry);
             self.entities_by_slot.push(Some(entity));
-            self.static_bounds.push(Aabb::EMPTY);
             (self.slots.len() - 1) as u32
         };
         self.assigned_slots.push(slot);
@@ -374,18 +338,12 @@ impl AccelTrees {
                         }
                     }
                 }
-                (TreeSlot::Static, true) => {
+                (TreeSlot::Static | TreeSlot::StaticWaiting(_), true)
+                    if self.slots[t.slot as usize].bounds() == bounds =>
+                {
+                    // Static entities are placed only when (re)marked.
                     self.slots[t.slot as usize].frame = frame;
-                    // Static entities are placed only when (re)marked; a changed box means
-                    // rebuilding the static tree.
-                    if self.static_bounds[t.slot as usize] != bounds {
-                        self.slots[t.slot as usize].set_bounds(bounds);
-                        self.static_bounds[t.slot as usize] = bounds;
-                        self.static_dirty = true;
-                        Placed::Moved
-                    } else {
-                        Placed::Unchanged
-                    }
+                    Placed::Unchanged
                 }
                 _ => {
                     self.remove(entity);
@@ -402,18 +360,20 @@ impl AccelTrees {
                     self.remove(stale);
                 }
                 let slot = self.allocate_slot(entity, bounds, frame);
-                let tree = if is_static {
-                    self.static_bounds[slot as usize] = bounds;
-                    self.static_dirty = true;
-                    TreeSlot::Static
-                } else {
-                    self.pending_upkeep = true;
-                    match self.index.insert(slot, bounds) {
-                        Ok(handle) => TreeSlot::Dynamic(handle),
-                        Err(e) => {
-                            self.release_slot(slot);
-                            return Placed::Refused(refusal(e));
-                        }
+                // A static newcomer waits in the dynamic index for the next static tree
+                // (see `scenery`): a static box that changed comes here too, as a leaver
+                // and a newcomer in a new slot, since the trees may still hold the old slot.
+                self.pending_upkeep = true;
+                let tree = match self.index.insert(slot, bounds) {
+                    Ok(handle) if is_static => {
+                        self.scenery.add(slot, bounds);
+                        self.static_waiting += 1;
+                        TreeSlot::StaticWaiting(handle)
+                    }
+                    Ok(handle) => TreeSlot::Dynamic(handle),
+                    Err(e) => {
+                        self.release_slot(slot);
+                        return Placed::Refused(refusal(e));
                     }
                 };
                 if self.tracked_by_index.len() <= index {
@@ -475,43 +435,107 @@ impl AccelTrees {
         };
         self.tracked_by_index[entity.index_u32() as usize] = None;
         self.tracked_count -= 1;
-        match t.tree {
-            TreeSlot::Dynamic(h) => {
-                self.pending_upkeep = true;
-                if let Err(e) = self.index.remove(h) {
-                    error!("bevy_accel: removing {entity} from the dynamic index failed: {e}");
-                }
-            }
-            TreeSlot::Static => {
-                self.static_bounds[t.slot as usize] = Aabb::EMPTY;
-                self.static_dirty = true;
+        if let TreeSlot::Dynamic(h) | TreeSlot::StaticWaiting(h) = t.tree {
+            self.pending_upkeep = true;
+            if let Err(e) = self.index.remove(h) {
+                error!("bevy_accel: removing {entity} from the dynamic index failed: {e}");
             }
         }
-        self.release_slot(t.slot);
+        self.vacate(t);
         true
+    }
+
+    /// Gives up the slot of an entity no longer tracked.
+    fn vacate(&mut self, t: Tracked) {
+        if let TreeSlot::StaticWaiting(_) = t.tree {
+            self.static_waiting -= 1;
+        }
+        if let TreeSlot::Dynamic(_) = t.tree {
+            self.release_slot(t.slot);
+        } else {
+            // The static tree (or one being built) may hold the slot: cleared, it reports
+            // nothing, and it is freed when a tree without it lands.
+            self.scenery.retire(t.slot);
+            self.clear_slot(t.slot);
+        }
+    }
+
+    fn clear_slot(&mut self, slot: u32) {
+        self.slots[slot as usize] = SlotEntry::FREE;
+        self.entities_by_slot[slot as usize] = None;
     }
 
     fn release_slot(&mut self, slot: u32) {
-        self.slots[slot as usize] = SlotEntry::FREE;
-        self.entities_by_slot[slot as usize] = None;
+        self.clear_slot(slot);
         self.free_slots.push(slot);
     }
 
-    /// Rebuilds the static tree if its set changed since the last call. The static tree is
-    /// built over the slot-indexed boxes (empty slots are left out by the builder), so its
-    /// primitive ids are slots, like the dynamic tree's.
-    pub(crate) fn rebuild_static_if_dirty(&mut self) -> bool {
-        if !std::mem::take(&mut self.static_dirty) {
-            return false;
+    /// Brings the static tree up to date with the static set, in the frame or off it (see
+    /// `scenery`): lands a build that finished, or starts one. True when a new static tree
+    /// was swapped in. The static tree is built over slot-indexed boxes (empty slots are
+    /// left out by the builder), so its primitive ids are slots, like the dynamic index's.
+    pub(crate) fn advance_static(&mut self, in_frame_up_to: usize) -> bool {
+        match self.scenery.advance(in_frame_up_to) {
+            Some(swap) => {
+                self.swap_static(swap);
+                true
+            }
+            None => false,
         }
-        self.index
-            .set_static(Bvh::build(&self.static_bounds, &entity_tree_config()));
-        true
     }
 
-    /// Number of entities in the static tree.
+    /// Waits for the static tree being built off the frame, if any, and swaps it in: for
+    /// tests, and for a loading screen that wants every static entity in the static tree
+    /// before play. True when a tree was swapped in.
+    pub fn finish_static_build(&mut self) -> bool {
+        match self.scenery.finish() {
+            Some(swap) => {
+                self.swap_static(swap);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn swap_static(&mut self, swap: StaticSwap) {
+        let old = self.index.set_static_prepared(swap.prepared);
+        crate::scenery::free_off_the_frame(old);
+        self.free_slots.extend(swap.freed);
+        for slot in swap.newcomers {
+            // A newcomer that left meanwhile has a cleared slot; one still here leaves the
+            // dynamic index, since the new tree holds it.
+            let Some(entity) = self.entities_by_slot[slot as usize] else {
+                continue;
+            };
+            let record = &mut self.tracked_by_index[entity.index_u32() as usize];
+            if let Some(Tracked { tree, .. }) = record
+                && let TreeSlot::StaticWaiting(handle) = *tree
+            {
+                *tree = TreeSlot::Static;
+                self.static_waiting -= 1;
+                self.pending_upkeep = true;
+                if let Err(e) = self.index.remove(handle) {
+                    error!("bevy_accel: moving {entity} into the static tree failed: {e}");
+                }
+            }
+        }
+    }
+
+    /// Number of static entities, those in the static tree and those waiting in the dynamic
+    /// index for the next one.
     pub fn static_len(&self) -> usize {
-        self.index.static_tree().primitive_count()
+        self.scenery.len()
+    }
+
+    /// Static entities held in the dynamic index until the static tree being built (or the
+    /// next one) takes them in. Queries find them all the same.
+    pub fn static_waiting_len(&self) -> usize {
+        self.static_waiting
+    }
+
+    /// Whether a static tree is being built off the frame.
+    pub fn static_build_in_flight(&self) -> bool {
+        self.scenery.building()
     }
 
     /// Moves every dynamic entity into a new, empty index of the chosen kind, keeping the
@@ -527,7 +551,7 @@ impl AccelTrees {
         self.pending_upkeep = true;
         let mut refused = Vec::new();
         for record in self.tracked_by_index.iter_mut().flatten() {
-            if let TreeSlot::Dynamic(handle) = &mut record.tree {
+            if let TreeSlot::Dynamic(handle) | TreeSlot::StaticWaiting(handle) = &mut record.tree {
                 let bounds = self.slots[record.slot as usize].bounds();
                 match self.index.insert(record.slot, bounds) {
                     Ok(new) => *handle = new,
@@ -541,7 +565,7 @@ impl AccelTrees {
                 .expect("a refused entity is still tracked");
             self.tracked_by_index[entity.index_u32() as usize] = None;
             self.tracked_count -= 1;
-            self.release_slot(t.slot);
+            self.vacate(t);
         }
         refused
     }

@@ -26,11 +26,13 @@ fn bvh(trees: &AccelTrees) -> &DynamicBvh {
 }
 
 /// The scenario below moves static entities too, so it asks the plugin to watch them.
-fn app_watching_statics(index: IndexChoice) -> App {
+/// `static_rebuild_in_frame_up_to` 0 sends every static rebuild but the first off the frame.
+fn app_watching_statics(index: IndexChoice, static_rebuild_in_frame_up_to: usize) -> App {
     let mut app = App::new();
     let settings = AccelSettings {
         watch_static_motion: true,
         index,
+        static_rebuild_in_frame_up_to,
         ..Default::default()
     };
     app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
@@ -80,15 +82,17 @@ fn check_consistency(app: &mut App) {
         let (slot, tree) = trees.location(e).unwrap();
         assert_eq!(trees.entity(slot), Some(e));
         match tree {
-            TreeSlot::Dynamic(AnyHandle::DynamicBvh(h)) => {
+            TreeSlot::Dynamic(AnyHandle::DynamicBvh(h))
+            | TreeSlot::StaticWaiting(AnyHandle::DynamicBvh(h)) => {
                 let fat = bvh(trees).fat_bounds(h).unwrap();
                 assert!(
                     fat.contains_aabb(&world_box),
                     "{e}: fat box {fat:?} misses {world_box:?}"
                 );
             }
-            TreeSlot::Dynamic(_) => assert_eq!(trees.world_bounds(slot), world_box),
-            TreeSlot::Static => assert_eq!(trees.world_bounds(slot), world_box),
+            TreeSlot::Dynamic(_) | TreeSlot::StaticWaiting(_) | TreeSlot::Static => {
+                assert_eq!(trees.world_bounds(slot), world_box)
+            }
         }
         // Whatever the index, a query over the entity's box reports its slot, once.
         let mut seen = 0;
@@ -98,12 +102,28 @@ fn check_consistency(app: &mut App) {
         });
         assert_eq!(seen, 1, "{e}: its own box query saw it {seen} times");
     }
-    // Every slot the static tree returns is a tracked static entity.
+    // Every slot the static tree returns is a tracked static entity's, or a cleared slot (a
+    // static entity that left since the tree was built), and holds every static entity.
+    let mut held_static = 0;
+    for &slot in trees.static_tree().primitive_indices() {
+        if let Some(e) = trees.entity(slot) {
+            assert_eq!(trees.location(e), Some((slot, TreeSlot::Static)), "{e}");
+            held_static += 1;
+        } else {
+            assert_eq!(trees.world_bounds(slot), bevy_accel::accel::Aabb::EMPTY);
+        }
+    }
     let n_static = trees
         .iter()
         .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static)
         .count();
-    assert_eq!(trees.static_tree().primitive_count(), n_static);
+    let n_waiting = trees
+        .iter()
+        .filter(|(e, _)| matches!(trees.location(*e).unwrap().1, TreeSlot::StaticWaiting(_)))
+        .count();
+    assert_eq!(held_static, n_static);
+    assert_eq!(trees.static_len(), n_static + n_waiting);
+    assert_eq!(trees.static_waiting_len(), n_waiting);
 }
 
 #[test]
@@ -118,13 +138,21 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
     // Every index, and the index switched to the next choice every 25 frames.
     for index in IndexChoice::ALL {
-        churn(index, false);
+        churn(index, false, 4_096);
     }
-    churn(IndexChoice::Bvh, true);
+    churn(IndexChoice::Bvh, true, 4_096);
 }
 
-fn churn(index: IndexChoice, switch: bool) {
-    let mut app = app_watching_statics(index);
+#[test]
+fn static_scenery_streams_in_and_out_through_builds_off_the_frame() {
+    // Static newcomers wait in the dynamic index and leavers' slots stay cleared while the
+    // static tree is rebuilt on the async compute pool; queries see the same entities.
+    churn(IndexChoice::Bvh, false, 0);
+    churn(IndexChoice::Grid, true, 0);
+}
+
+fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize) {
+    let mut app = app_watching_statics(index, static_rebuild_in_frame_up_to);
     let mut rng = Rng::from_state(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
@@ -135,6 +163,7 @@ fn churn(index: IndexChoice, switch: bool) {
         );
     }
     let mut live: Vec<Entity> = Vec::new();
+    let mut built_off_the_frame = 0;
     for frame in 0..120 {
         let world = app.world_mut();
         // Spawn: some free, some children of a moving parent, some static, some ignored.
@@ -211,9 +240,24 @@ fn churn(index: IndexChoice, switch: bool) {
         app.update();
         check_consistency(&mut app);
         let wanted = app.world().resource::<AccelSettings>().index;
-        assert_eq!(app.world().resource::<AccelStats>().index, wanted);
+        let stats = app.world().resource::<AccelStats>();
+        assert_eq!(stats.index, wanted);
+        built_off_the_frame += usize::from(stats.static_build_in_flight);
     }
+    // The first load is built in its frame; later changes go off it only past the setting.
+    assert_eq!(built_off_the_frame > 0, static_rebuild_in_frame_up_to == 0);
     assert!(app.world().resource::<AccelTrees>().len() > 2000);
+    // A build still in flight lands, and the next one takes in whoever waits.
+    for _ in 0..2 {
+        app.world_mut()
+            .resource_mut::<AccelTrees>()
+            .finish_static_build();
+        app.update();
+    }
+    check_consistency(&mut app);
+    let trees = app.world().resource::<AccelTrees>();
+    assert_eq!(trees.static_waiting_len(), 0);
+    assert!(trees.static_len() > 300);
 }
 
 #[test]

@@ -2,7 +2,9 @@
 //! under the static tree.
 
 use super::IndexChoice;
-use accel::dynamic::{DynamicBvh, DynamicBvhConfig, LayeredIndex, StaticDynamicPair};
+use accel::dynamic::{
+    DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair,
+};
 use accel::query::views::{ViewClassification, ViewMasks};
 use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexStats, RayWalk};
 use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
@@ -73,9 +75,9 @@ impl EntityIndex {
         on_layers!(self, layers => layers.static_tree())
     }
 
-    /// Replaces the static tree.
-    pub(crate) fn set_static(&mut self, static_tree: Bvh) {
-        on_layers!(self, layers => { layers.set_static(static_tree); })
+    /// Replaces the static tree with one prepared off the frame, returning the old one.
+    pub(crate) fn set_static_prepared(&mut self, prepared: PreparedStatic) -> PreparedStatic {
+        on_layers!(self, layers => layers.set_static_prepared(prepared))
     }
 
     /// Takes the static tree out, leaving an empty one.

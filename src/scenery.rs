@@ -1,0 +1,182 @@
+//! The static tree's upkeep: scenery streamed in and out without a frame stall.
+//!
+//! A static BVH is built once and never refit, which is what makes it fast to query; the
+//! price is that its set cannot change in place. Rebuilding it in the frame that spawns or
+//! despawns one static entity stalls that frame by the whole build (a million boxes take
+//! hundreds of milliseconds). So a change of the static set is split in two:
+//!
+//! - **In the frame**, O(1) per entity: a newcomer goes into the dynamic index, where queries
+//!   find it at once; a leaver's slot is *retired*: its entity and exact box are cleared, so
+//!   the static tree may still report the slot but no query callback finds anything there,
+//!   and the slot is not reused while any tree still holds it.
+//! - **Off the frame**: the next static tree, with its ray form and spans
+//!   ([`PreparedStatic`]), is built on Bevy's async compute pool over the wanted boxes; when
+//!   it is done it is swapped in (a move), the newcomers it holds leave the dynamic index,
+//!   and the retired slots it no longer holds are freed.
+//!
+//! A load that more than doubles the set is built in its frame: a loading frame builds
+//! faster in one go than by a million insertions into the dynamic index. So are sets up to
+//! [`AccelSettings::static_rebuild_in_frame_up_to`](crate::AccelSettings::static_rebuild_in_frame_up_to),
+//! and every set when there is no async compute pool. Figures: BENCHMARKS.md, Static scenery
+//! streaming.
+
+use crate::trees::entity_tree_config;
+use accel::dynamic::PreparedStatic;
+use accel::{Aabb, Bvh};
+use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};
+
+/// What a build takes and gives back: the boxes by slot (handed back so the next build
+/// reuses them without a copy).
+type BuildOutput = (PreparedStatic, Vec<Aabb>);
+
+/// A static tree being built off the frame, with what to do when it lands.
+struct InFlight {
+    task: Task<BuildOutput>,
+    /// Slots of the newcomers the new tree holds.
+    newcomers: Vec<u32>,
+    /// Slots retired before the build started: the new tree does not hold them.
+    retired: Vec<u32>,
+}
+
+/// A new static tree to swap in, with the slots it settles.
+pub(crate) struct StaticSwap {
+    pub(crate) prepared: PreparedStatic,
+    /// Newcomers the tree holds: they leave the dynamic index (if still tracked in that slot).
+    pub(crate) newcomers: Vec<u32>,
+    /// Retired slots no tree holds any more: free for reuse.
+    pub(crate) freed: Vec<u32>,
+}
+
+/// The wanted static set by slot, and the build that will make it the static tree.
+#[derive(Default)]
+pub(crate) struct StaticScenery {
+    /// The box of each slot's static entity (`Aabb::EMPTY` where none): the next build's
+    /// input. Empty while a build holds it.
+    bounds: Vec<Aabb>,
+    /// Writes to `bounds` made while a build holds it, applied when it comes back.
+    edits: Vec<(u32, Aabb)>,
+    /// Static entities wanted (newcomers included).
+    live: usize,
+    /// Newcomers not yet in any build.
+    waiting: Vec<u32>,
+    /// Slots retired since the last build started.
+    retired: Vec<u32>,
+    in_flight: Option<InFlight>,
+}
+
+impl StaticScenery {
+    /// Static entities wanted: those in the static tree and those waiting for the next one.
+    pub(crate) fn len(&self) -> usize {
+        self.live
+    }
+
+    /// Whether a static tree is being built off the frame.
+    pub(crate) fn building(&self) -> bool {
+        self.in_flight.is_some()
+    }
+
+    fn write(&mut self, slot: u32, bounds: Aabb) {
+        if self.in_flight.is_some() {
+            self.edits.push((slot, bounds));
+            return;
+        }
+        let slot = slot as usize;
+        if self.bounds.len() <= slot {
+            self.bounds.resize(slot + 1, Aabb::EMPTY);
+        }
+        self.bounds[slot] = bounds;
+    }
+
+    /// A static entity arrives in `slot` with its world box (the caller keeps it in the
+    /// dynamic index until the swap that lists the slot among its newcomers).
+    pub(crate) fn add(&mut self, slot: u32, bounds: Aabb) {
+        self.write(slot, bounds);
+        self.live += 1;
+        self.waiting.push(slot);
+    }
+
+    /// The static entity in `slot` leaves. The caller clears the slot but must not reuse it
+    /// before a swap lists it as freed.
+    pub(crate) fn retire(&mut self, slot: u32) {
+        self.write(slot, Aabb::EMPTY);
+        self.live -= 1;
+        self.retired.push(slot);
+    }
+
+    /// Lands a finished build, or starts one when the set changed: the once-per-frame call.
+    /// `in_frame_up_to` is the set size up to which a build runs here rather than off the
+    /// frame.
+    pub(crate) fn advance(&mut self, in_frame_up_to: usize) -> Option<StaticSwap> {
+        if let Some(build) = &mut self.in_flight {
+            let output = check_ready(&mut build.task)?;
+            return Some(self.land(output));
+        }
+        if self.waiting.is_empty() && self.retired.is_empty() {
+            return None;
+        }
+        let tree_len = self.live + self.retired.len() - self.waiting.len();
+        let mass_load = self.waiting.len() > tree_len;
+        match AsyncComputeTaskPool::try_get() {
+            Some(pool) if self.live > in_frame_up_to && !mass_load => {
+                let bounds = core::mem::take(&mut self.bounds);
+                let task = pool.spawn(async move { build(bounds) });
+                self.in_flight = Some(InFlight {
+                    task,
+                    newcomers: core::mem::take(&mut self.waiting),
+                    retired: core::mem::take(&mut self.retired),
+                });
+                None
+            }
+            _ => {
+                let (prepared, bounds) = build(core::mem::take(&mut self.bounds));
+                self.bounds = bounds;
+                Some(StaticSwap {
+                    prepared,
+                    newcomers: core::mem::take(&mut self.waiting),
+                    freed: core::mem::take(&mut self.retired),
+                })
+            }
+        }
+    }
+
+    /// Waits for the build in flight, if any, and lands it.
+    pub(crate) fn finish(&mut self) -> Option<StaticSwap> {
+        let build = self.in_flight.as_mut()?;
+        let output = block_on(&mut build.task);
+        Some(self.land(output))
+    }
+
+    fn land(&mut self, (prepared, bounds): BuildOutput) -> StaticSwap {
+        let build = self
+            .in_flight
+            .take()
+            .expect("a build lands only while in flight");
+        self.bounds = bounds;
+        for (slot, bounds) in core::mem::take(&mut self.edits) {
+            self.write(slot, bounds);
+        }
+        StaticSwap {
+            prepared,
+            newcomers: build.newcomers,
+            freed: build.retired,
+        }
+    }
+}
+
+/// Frees a replaced static tree on the async compute pool: freeing the arrays of a large
+/// tree returns their pages to the system, milliseconds at a million entities, which the swap
+/// frame need not pay. Frees it here when there is no pool.
+pub(crate) fn free_off_the_frame(old: PreparedStatic) {
+    match AsyncComputeTaskPool::try_get() {
+        Some(pool) if old.tree().primitive_count() > 0 => {
+            pool.spawn(async move { drop(old) }).detach();
+        }
+        _ => drop(old),
+    }
+}
+
+/// The static tree over `bounds` (empty boxes are left out, so primitive ids are slots).
+fn build(bounds: Vec<Aabb>) -> BuildOutput {
+    let prepared = PreparedStatic::new(Bvh::build(&bounds, &entity_tree_config()));
+    (prepared, bounds)
+}
