@@ -160,4 +160,71 @@ impl Frustum {
     pub fn contains_point(&self, p: Vec3A) -> bool {
         self.planes.iter().all(|pl| pl.signed_distance(p) >= 0.0)
     }
+
+    /// The frustum's eight corners, for drawing it: the near face first, then the far one,
+    /// each as left-bottom, right-bottom, right-top, left-top. A plane at infinity (the far
+    /// plane of Bevy's perspective) is replaced by one `max_depth` past the opposite plane,
+    /// parallel to it. `None` when three planes do not meet in a point (a degenerate frustum).
+    ///
+    /// Why the near face is told by its size: planes 4 and 5 swap roles between reverse-z
+    /// (Bevy's) and standard depth, and six planes do not say where the eye is; a perspective
+    /// view's near face is the smaller one (an orthographic view's faces are alike, and either
+    /// order draws the same box).
+    ///
+    /// ```
+    /// use accel::Frustum;
+    /// use glam::{Mat4, Vec3};
+    /// let proj = Mat4::perspective_rh(1.0, 1.0, 1.0, 10.0);
+    /// let view = Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y);
+    /// let corners = Frustum::from_clip_from_world(&(proj * view)).corners(100.0).unwrap();
+    /// assert!((corners[0].z + 1.0).abs() < 1e-4); // near plane at z = -1
+    /// assert!((corners[4].z + 10.0).abs() < 1e-3); // far plane at z = -10
+    ///
+    /// // Bevy's infinite reverse-z projection: the far corners come `max_depth` past the near.
+    /// let proj = Mat4::perspective_infinite_reverse_rh(1.0, 1.0, 1.0);
+    /// let corners = Frustum::from_clip_from_world(&(proj * view)).corners(100.0).unwrap();
+    /// assert!((corners[0].z + 1.0).abs() < 1e-4);
+    /// assert!((corners[4].z + 101.0).abs() < 1e-2);
+    /// ```
+    pub fn corners(&self, max_depth: f32) -> Option<[Vec3A; 8]> {
+        let [left, right, bottom, top, mut a, mut b] = self.planes;
+        // Inside a stand-in for a plane at infinity: at most `max_depth` past the other.
+        let opposite = |p: &Plane| Plane {
+            normal: -p.normal,
+            d: max_depth - p.d,
+        };
+        if b.normal == Vec3A::ZERO {
+            b = opposite(&a);
+        } else if a.normal == Vec3A::ZERO {
+            a = opposite(&b);
+        }
+        let face = |depth: &Plane| -> Option<[Vec3A; 4]> {
+            Some([
+                meet(&left, &bottom, depth)?,
+                meet(&right, &bottom, depth)?,
+                meet(&right, &top, depth)?,
+                meet(&left, &top, depth)?,
+            ])
+        };
+        let (mut near, mut far) = (face(&a)?, face(&b)?);
+        let area = |f: &[Vec3A; 4]| (f[2] - f[0]).cross(f[3] - f[1]).length();
+        if area(&near) > area(&far) {
+            core::mem::swap(&mut near, &mut far);
+        }
+        let mut corners = [Vec3A::ZERO; 8];
+        corners[..4].copy_from_slice(&near);
+        corners[4..].copy_from_slice(&far);
+        Some(corners)
+    }
+}
+
+/// The point where three planes meet (Cramer's rule on their normals), if they meet in one.
+fn meet(a: &Plane, b: &Plane, c: &Plane) -> Option<Vec3A> {
+    let bc = b.normal.cross(c.normal);
+    let det = a.normal.dot(bc);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let p = (-a.d * bc - b.d * c.normal.cross(a.normal) - c.d * a.normal.cross(b.normal)) / det;
+    p.is_finite().then_some(p)
 }
