@@ -3,15 +3,23 @@
 //! and the shadow views of the sun and of a point light are culled on the trees
 //! (`AccelCullingPlugin`).
 //!
+//! Debug overlays (`AccelOverlaysPlugin`), toggled by keys:
+//! - `1`: the dynamic index's nodes, by depth; `2`: the static tree's nodes;
+//! - `3`: every cube's box, green where the camera sees it, red where it was culled;
+//! - `4`: the camera's frustum (seen from elsewhere: it frames this view);
+//! - `[` and `]`: the deepest tree level drawn; `I`: the next index choice for the movers.
+//!
 //! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` saves a frame and exits (the cubes'
 //! motion then follows the frame count, not the clock, so runs can be compared). With
-//! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison.
+//! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison;
+//! `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::PrimaryWindow;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::accel::{Ray, SpatialQuery};
+use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 use bevy_accel::prelude::*;
 
 const GRID: i32 = 40;
@@ -38,13 +46,22 @@ struct Target(Entity, Vec3);
 
 fn main() -> AppExit {
     let mut app = App::new();
-    app.add_plugins((DefaultPlugins, AccelPlugin::default()));
+    app.add_plugins((DefaultPlugins, AccelPlugin::default(), AccelOverlaysPlugin));
     if std::env::var_os("ACCEL_BEVY_CULLING").is_none() {
         app.add_plugins(AccelCullingPlugin);
     }
+    if std::env::var("ACCEL_OVERLAYS").is_ok_and(|v| v == "all") {
+        app.insert_resource(AccelOverlaySettings {
+            dynamic_nodes: true,
+            static_nodes: true,
+            entity_bounds: true,
+            max_depth: 4,
+            ..default()
+        });
+    }
     app.init_resource::<Highlighted>()
         .add_systems(Startup, setup)
-        .add_systems(Update, (bob, screenshot_and_exit))
+        .add_systems(Update, (bob, toggle_overlays, screenshot_and_exit))
         .add_systems(
             PostUpdate,
             highlight_under_cursor.after(AccelSystems::Maintain),
@@ -130,6 +147,39 @@ fn bob(time: Res<Time>, mut frame: Local<u32>, mut q: Query<(&Bob, &mut Transfor
     };
     for (b, mut tf) in &mut q {
         tf.translation = b.home + Vec3::Y * (t * 2.0 + b.phase).sin() * 1.5;
+    }
+}
+
+/// The overlay keys of the module docs.
+fn toggle_overlays(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut overlays: ResMut<AccelOverlaySettings>,
+    mut settings: ResMut<AccelSettings>,
+) {
+    let overlays = &mut *overlays;
+    for (key, toggle) in [
+        (KeyCode::Digit1, &mut overlays.dynamic_nodes),
+        (KeyCode::Digit2, &mut overlays.static_nodes),
+        (KeyCode::Digit3, &mut overlays.entity_bounds),
+        (KeyCode::Digit4, &mut overlays.frustum),
+    ] {
+        if keys.just_pressed(key) {
+            *toggle = !*toggle;
+        }
+    }
+    if keys.just_pressed(KeyCode::BracketLeft) {
+        overlays.max_depth = overlays.max_depth.saturating_sub(1).max(overlays.min_depth);
+    }
+    if keys.just_pressed(KeyCode::BracketRight) {
+        overlays.max_depth += 1;
+    }
+    if keys.just_pressed(KeyCode::KeyI) {
+        let next = IndexChoice::ALL
+            .iter()
+            .position(|&c| c == settings.index)
+            .map_or(0, |i| (i + 1) % IndexChoice::ALL.len());
+        settings.index = IndexChoice::ALL[next];
+        info!("movers now in {:?}", settings.index);
     }
 }
 

@@ -48,6 +48,8 @@ pub mod index;
 mod local_frame;
 #[cfg(feature = "picking")]
 mod meshes;
+#[cfg(feature = "overlays")]
+pub mod overlays;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod prefetch;

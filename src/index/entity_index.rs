@@ -6,7 +6,7 @@ use accel::dynamic::{
     DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair,
 };
 use accel::query::views::{ViewClassification, ViewMasks};
-use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexStats, RayWalk};
+use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexStats, NodeView, RayWalk};
 use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use bevy::math::Vec3A;
 use core::ops::ControlFlow;
@@ -120,6 +120,30 @@ impl EntityIndex {
             Self::Bvh(pair) => pair.dynamic().index_stats(),
             Self::Layered(layers) => layers.dynamic().index_stats(),
         }
+    }
+
+    /// Visits the dynamic index's nodes with depth in `depths`, shallowest first (see
+    /// [`DynamicIndex::visit_nodes`]): what the tree-node overlay draws.
+    pub fn visit_dynamic_nodes(
+        &self,
+        depths: core::ops::RangeInclusive<u32>,
+        visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
+    ) -> ControlFlow<()> {
+        match self {
+            Self::Bvh(pair) => pair.dynamic().visit_nodes(depths, visit),
+            Self::Layered(layers) => layers.dynamic().visit_nodes(depths, visit),
+        }
+    }
+
+    /// A box around everything both layers hold (the dynamic index's fat or loose boxes
+    /// included): O(1) for the trees, a pass over the occupied cells for the grid.
+    pub fn bounds(&self) -> Aabb {
+        let mut bounds = self.static_tree().bounds();
+        let _ = self.visit_dynamic_nodes(0..=0, &mut |node| {
+            bounds = bounds.union(&node.bounds);
+            ControlFlow::Continue(())
+        });
+        bounds
     }
 
     /// Adds a moving entity's slot with its world box.
