@@ -16,7 +16,12 @@
 //! far plane).
 //!
 //! `cargo bench --workspace --profile dev --bench frame -- [--entities 100000,1000000]
-//! [--moving 0,10,25] [--camera strategy,ground] [--index bvh,octree,grid,quadtree,brute] [--frames 40]`
+//! [--moving 0,10,25] [--camera strategy,ground] [--index bvh,octree,grid,quadtree,brute] [--frames 40]
+//! [--overlays-off]`
+//!
+//! `--overlays-off` adds, for each index, the same app with Bevy's gizmos, and with Bevy's
+//! gizmos and `AccelOverlaysPlugin` with every overlay off: the difference of those two is
+//! what the overlays cost when they are not used.
 //!
 //! Prints one table row per scene: median frame times, the whole-frame speed-up (bevy /
 //! accel) and the speed-up of what each pays over the floor (the culling, and for us the
@@ -59,6 +64,10 @@ enum Contender {
     Floor,
     Bevy,
     Accel(IndexChoice),
+    /// The same with Bevy's gizmos (`GizmoPlugin`) added, which the overlays draw with.
+    AccelGizmos(IndexChoice),
+    /// The same with Bevy's gizmos and `AccelOverlaysPlugin`, every overlay off.
+    AccelOverlaysOff(IndexChoice),
 }
 
 impl Contender {
@@ -67,6 +76,8 @@ impl Contender {
             Self::Floor => "floor".into(),
             Self::Bevy => "bevy".into(),
             Self::Accel(index) => format!("accel/{index:?}"),
+            Self::AccelGizmos(index) => format!("accel/{index:?}+gizmos"),
+            Self::AccelOverlaysOff(index) => format!("accel/{index:?}+gizmos+overlays-off"),
         }
     }
 }
@@ -158,7 +169,16 @@ fn build_app(contender: Contender, n: usize, moving_pct: u32, kind: CameraKind) 
     .init_resource::<FrameCount>()
     .add_systems(First, count_frame)
     .add_systems(Update, wobble);
-    if let Contender::Accel(index) = contender {
+    if let Contender::AccelGizmos(_) | Contender::AccelOverlaysOff(_) = contender {
+        app.add_plugins(bevy::gizmos::GizmoPlugin);
+    }
+    if let Contender::AccelOverlaysOff(_) = contender {
+        app.add_plugins(bevy_accel::overlays::AccelOverlaysPlugin);
+    }
+    if let Contender::Accel(index)
+    | Contender::AccelGizmos(index)
+    | Contender::AccelOverlaysOff(index) = contender
+    {
         app.add_plugins((
             AccelPlugin {
                 settings: AccelSettings { index, ..default() },
@@ -228,7 +248,9 @@ fn visible_share(app: &mut App, contender: Contender, n: usize) -> f64 {
             let mut q = world.query::<&ViewVisibility>();
             q.iter(world).filter(|v| v.get()).count()
         }
-        Contender::Accel(_) => app.world().resource::<CullingStats>().visible,
+        Contender::Accel(_) | Contender::AccelGizmos(_) | Contender::AccelOverlaysOff(_) => {
+            app.world().resource::<CullingStats>().visible
+        }
     };
     100.0 * visible as f64 / n as f64
 }
@@ -251,6 +273,7 @@ fn main() {
     let sizes = list(&args, "--entities", &[100_000usize, 1_000_000]);
     let moving = list(&args, "--moving", &[0u32, 10, 25]);
     let frames = list(&args, "--frames", &[40usize])[0];
+    let overlays_off = args.iter().any(|a| a == "--overlays-off");
     let cameras: Vec<CameraKind> = list(
         &args,
         "--camera",
@@ -288,6 +311,12 @@ fn main() {
             for &kind in &cameras {
                 let mut contenders = vec![Contender::Floor, Contender::Bevy];
                 contenders.extend(indexes.iter().map(|&i| Contender::Accel(i)));
+                if overlays_off {
+                    for &i in &indexes {
+                        contenders
+                            .extend([Contender::AccelGizmos(i), Contender::AccelOverlaysOff(i)]);
+                    }
+                }
                 let mut apps: Vec<App> = contenders
                     .iter()
                     .map(|&c| build_app(c, n, pct, kind))
