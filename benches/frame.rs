@@ -40,6 +40,10 @@ use bevy_accel::prelude::*;
 use std::any::TypeId;
 use std::time::{Duration, Instant};
 
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+use bench_args::list;
+
 /// The visibility class of the scene's boxes (Bevy culls per class).
 #[derive(Component, Default)]
 struct Drawable;
@@ -253,19 +257,6 @@ fn visible_share(app: &mut App, contender: Contender, n: usize) -> f64 {
         }
     };
     100.0 * visible as f64 / n as f64
-}
-
-fn list<T: std::str::FromStr + Clone>(args: &[String], flag: &str, default: &[T]) -> Vec<T> {
-    match args.iter().position(|a| a == flag) {
-        Some(i) => args[i + 1]
-            .split(',')
-            .map(|s| {
-                s.parse()
-                    .unwrap_or_else(|_| panic!("bad value for {flag}: {s}"))
-            })
-            .collect(),
-        None => default.to_vec(),
-    }
 }
 
 fn main() {

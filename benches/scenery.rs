@@ -30,6 +30,10 @@ use bevy_accel::prelude::*;
 use std::any::TypeId;
 use std::time::{Duration, Instant};
 
+#[path = "bench_args/mod.rs"]
+mod bench_args;
+use bench_args::list;
+
 /// The visibility class of the scene's boxes (Bevy culls per class).
 #[derive(Component, Default)]
 struct Drawable;
@@ -158,19 +162,6 @@ fn strategy_camera(side: f32) -> (Transform, Frustum) {
         transform,
         Frustum(ViewFrustum::from_clip_from_world(&(proj * view))),
     )
-}
-
-fn list<T: std::str::FromStr + Clone>(args: &[String], flag: &str, default: &[T]) -> Vec<T> {
-    match args.iter().position(|a| a == flag) {
-        Some(i) => args[i + 1]
-            .split(',')
-            .map(|s| {
-                s.parse()
-                    .unwrap_or_else(|_| panic!("bad value for {flag}: {s}"))
-            })
-            .collect(),
-        None => default.to_vec(),
-    }
 }
 
 fn ms(d: Duration) -> f64 {

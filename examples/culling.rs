@@ -13,12 +13,14 @@
 use bevy::camera::Viewport;
 use bevy::camera::visibility::{RenderLayers, VisibleEntities};
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::overlays::{
     AccelGizmos, AccelOverlaySettings, AccelOverlayStats, AccelOverlaysPlugin,
 };
 use bevy_accel::prelude::*;
+
+#[path = "support/screenshot.rs"]
+mod screenshot;
 
 const SIDE: i32 = 60;
 /// The render layer only the inset sees: the overlays are drawn there.
@@ -117,13 +119,9 @@ fn overlays_in_the_inset_only(
     });
 }
 
-fn screenshot_mode() -> bool {
-    std::env::var_os("ACCEL_SCREENSHOT").is_some()
-}
-
 fn bob(time: Res<Time>, mut frame: Local<u32>, mut q: Query<(&Bob, &mut Transform)>) {
     *frame += 1;
-    let t = if screenshot_mode() {
+    let t = if screenshot::screenshot_mode() {
         *frame as f32 / 30.0
     } else {
         time.elapsed_secs()
@@ -135,7 +133,7 @@ fn bob(time: Res<Time>, mut frame: Local<u32>, mut q: Query<(&Bob, &mut Transfor
 
 /// Turns the main camera about its own position, a full turn in a minute.
 fn turn(time: Res<Time>, paused: Res<Paused>, mut main: Query<&mut Transform, With<MainView>>) {
-    if paused.0 || screenshot_mode() {
+    if paused.0 || screenshot::screenshot_mode() {
         return;
     }
     for mut tf in &mut main {
@@ -172,29 +170,19 @@ fn screenshot_and_exit(
     stats: Res<AccelOverlayStats>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else {
+    if !screenshot::check_due(&mut commands, &mut frame) {
         return;
-    };
-    *frame += 1;
-    if *frame == 30 {
-        commands
-            .spawn(Screenshot::primary_window())
-            .observe(save_to_disk(path));
     }
-    if *frame == 40 {
-        let seen = main
-            .single()
-            .map_or(0, |v| v.get(core::any::TypeId::of::<Mesh3d>()).len());
-        let culled = stats.entity_boxes - stats.visible_boxes;
-        info!(
+    let seen = main
+        .single()
+        .map_or(0, |v| v.get(core::any::TypeId::of::<Mesh3d>()).len());
+    let culled = stats.entity_boxes - stats.visible_boxes;
+    screenshot::exit_with(
+        &mut exit,
+        seen > 0 && stats.visible_boxes == seen.min(stats.entity_boxes) && culled > 0,
+        format!(
             "main camera sees {seen} cubes; the overlay drew {} boxes, {culled} culled",
             stats.entity_boxes
-        );
-        if seen > 0 && stats.visible_boxes == seen.min(stats.entity_boxes) && culled > 0 {
-            exit.write(AppExit::Success);
-        } else {
-            error!("expected some cubes seen and some culled: {stats:?}");
-            exit.write(AppExit::error());
-        }
-    }
+        ),
+    );
 }

@@ -15,12 +15,14 @@
 //! `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::PrimaryWindow;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::accel::{Ray, SpatialQuery};
 use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 use bevy_accel::prelude::*;
+
+#[path = "support/screenshot.rs"]
+mod screenshot;
 
 const GRID: i32 = 40;
 
@@ -140,7 +142,7 @@ fn setup(
 
 fn bob(time: Res<Time>, mut frame: Local<u32>, mut q: Query<(&Bob, &mut Transform)>) {
     *frame += 1;
-    let t = if std::env::var_os("ACCEL_SCREENSHOT").is_some() {
+    let t = if screenshot::screenshot_mode() {
         *frame as f32 / 30.0
     } else {
         time.elapsed_secs()
@@ -174,11 +176,7 @@ fn toggle_overlays(
         overlays.max_depth += 1;
     }
     if keys.just_pressed(KeyCode::KeyI) {
-        let next = IndexChoice::ALL
-            .iter()
-            .position(|&c| c == settings.index)
-            .map_or(0, |i| (i + 1) % IndexChoice::ALL.len());
-        settings.index = IndexChoice::ALL[next];
+        settings.index = settings.index.next();
         info!("movers now in {:?}", settings.index);
     }
 }
@@ -196,7 +194,7 @@ fn highlight_under_cursor(
     let (camera, camera_tf) = *camera;
     // In screenshot mode the pointer is placed over a known static cube.
     let aimed = target
-        .filter(|_| std::env::var_os("ACCEL_SCREENSHOT").is_some())
+        .filter(|_| screenshot::screenshot_mode())
         .and_then(|t| camera.world_to_viewport(camera_tf, t.1).ok());
     let pointer = aimed
         .or(window.cursor_position())
@@ -235,23 +233,13 @@ fn screenshot_and_exit(
     target: Option<Res<Target>>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else {
+    if !screenshot::check_due(&mut commands, &mut frame) {
         return;
-    };
-    *frame += 1;
-    if *frame == 30 {
-        commands
-            .spawn(Screenshot::primary_window())
-            .observe(save_to_disk(path));
     }
-    if *frame == 40 {
-        let expected = target.map(|t| t.0);
-        if highlighted.0.is_some() && highlighted.0 == expected {
-            info!("highlighted the expected cube {expected:?}");
-            exit.write(AppExit::Success);
-        } else {
-            error!("highlighted {:?}, expected {expected:?}", highlighted.0);
-            exit.write(AppExit::error());
-        }
-    }
+    let expected = target.map(|t| t.0);
+    screenshot::exit_with(
+        &mut exit,
+        highlighted.0.is_some() && highlighted.0 == expected,
+        format!("highlighted {:?}, expected {expected:?}", highlighted.0),
+    );
 }

@@ -12,12 +12,14 @@
 
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::PrimaryWindow;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 use bevy_accel::prelude::*;
+
+#[path = "support/screenshot.rs"]
+mod screenshot;
 
 #[derive(Component)]
 struct Wobble {
@@ -116,11 +118,7 @@ fn keys(
     mut overlays: ResMut<AccelOverlaySettings>,
 ) {
     if keys.just_pressed(KeyCode::KeyI) {
-        let next = IndexChoice::ALL
-            .iter()
-            .position(|&c| c == settings.index)
-            .map_or(0, |i| (i + 1) % IndexChoice::ALL.len());
-        settings.index = IndexChoice::ALL[next];
+        settings.index = settings.index.next();
     }
     if keys.just_pressed(KeyCode::Digit3) {
         overlays.entity_bounds = !overlays.entity_bounds;
@@ -170,26 +168,16 @@ fn screenshot_and_exit(
     trees: Res<AccelTrees>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    let Ok(path) = std::env::var("ACCEL_SCREENSHOT") else {
+    if !screenshot::check_due(&mut commands, &mut frame) {
         return;
-    };
-    *frame += 1;
-    if *frame == 30 {
-        commands
-            .spawn(Screenshot::primary_window())
-            .observe(save_to_disk(path));
     }
-    if *frame == 40 {
-        if trees.len() == scene.entities {
-            info!("{} entities in the trees", trees.len());
-            exit.write(AppExit::Success);
-        } else {
-            error!(
-                "{} of {} entities in the trees",
-                trees.len(),
-                scene.entities
-            );
-            exit.write(AppExit::error());
-        }
-    }
+    screenshot::exit_with(
+        &mut exit,
+        trees.len() == scene.entities,
+        format!(
+            "{} of {} entities in the trees",
+            trees.len(),
+            scene.entities
+        ),
+    );
 }

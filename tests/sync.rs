@@ -231,11 +231,7 @@ fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize)
         if switch && frame % 25 == 24 {
             let mut settings = app.world_mut().resource_mut::<AccelSettings>();
             // Through every choice in turn.
-            let next = IndexChoice::ALL
-                .iter()
-                .position(|&c| c == settings.index)
-                .map_or(0, |i| (i + 1) % IndexChoice::ALL.len());
-            settings.index = IndexChoice::ALL[next];
+            settings.index = settings.index.next();
         }
         app.update();
         check_consistency(&mut app);

@@ -52,6 +52,19 @@ impl IndexChoice {
         IndexChoice::BruteForce,
     ];
 
+    /// The choice after this one in [`Self::ALL`], wrapping around: for a key or a button that
+    /// cycles through them.
+    ///
+    /// ```
+    /// use bevy_accel::IndexChoice;
+    /// assert_eq!(IndexChoice::Bvh.next(), IndexChoice::Octree);
+    /// assert_eq!(IndexChoice::BruteForce.next(), IndexChoice::Bvh);
+    /// ```
+    pub fn next(self) -> Self {
+        let i = Self::ALL.iter().position(|&c| c == self).unwrap_or(0);
+        Self::ALL[(i + 1) % Self::ALL.len()]
+    }
+
     /// The core's structure behind this choice.
     pub fn kind(self) -> accel::query::IndexKind {
         use accel::query::IndexKind;
