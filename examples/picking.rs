@@ -1,6 +1,7 @@
-//! Click to select, through `AccelPickingPlugin`: a few hundred meshes of several kinds; a
-//! click highlights the mesh under the pointer and logs the entity, the triangle and the hit
-//! point, all found through the trees and the per-mesh BVHs.
+//! Click to select, through `AccelPickingPlugin`: a few hundred meshes of several kinds, and a
+//! row of Stanford bunnies loaded from `assets/bunny.obj` behind them; a click highlights the
+//! mesh under the pointer and logs the entity, the triangle and the hit point, all found
+//! through the trees and the per-mesh BVHs.
 //!
 //! `ACCEL_SCREENSHOT=out.png cargo run --example picking` clicks a known cube (a synthetic
 //! press and release at its screen position), saves a frame and exits, failing unless that
@@ -14,6 +15,9 @@ use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::{PrimaryWindow, WindowRef};
 use bevy_accel::picking::{AccelHitExtra, AccelPickingPlugin};
 use bevy_accel::prelude::*;
+
+#[path = "support/obj_loader.rs"]
+mod obj_loader;
 
 #[derive(Resource)]
 struct Palette {
@@ -31,6 +35,7 @@ struct Target(Entity, Vec3);
 fn main() -> AppExit {
     App::new()
         .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelPickingPlugin))
+        .init_asset_loader::<obj_loader::ObjLoader>()
         .init_resource::<Selected>()
         .add_systems(Startup, setup)
         .add_systems(Update, synthetic_click_and_screenshot)
@@ -39,6 +44,7 @@ fn main() -> AppExit {
 
 fn setup(
     mut commands: Commands,
+    assets: Res<AssetServer>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
@@ -69,6 +75,19 @@ fn setup(
                 target = Some(Target(id, position));
             }
         }
+    }
+    // The model is about ten units across, standing on its y = 0 base.
+    let bunny: Handle<Mesh> = assets.load("bunny.obj");
+    for i in -3i32..=3 {
+        commands
+            .spawn((
+                Mesh3d(bunny.clone()),
+                MeshMaterial3d(normal.clone()),
+                Transform::from_xyz(i as f32 * 4.0, -0.5, -16.0)
+                    .with_rotation(Quat::from_rotation_y(0.5 * i as f32))
+                    .with_scale(Vec3::splat(0.3)),
+            ))
+            .observe(select_on_click);
     }
     if let Some(target) = target {
         commands.insert_resource(target);
@@ -121,6 +140,8 @@ fn synthetic_click_and_screenshot(
     camera: Single<(&Camera, &GlobalTransform)>,
     target: Option<Res<Target>>,
     selected: Res<Selected>,
+    bunnies: Query<&Mesh3d, Without<Camera>>,
+    meshes: Res<Assets<Mesh>>,
     mut input: MessageWriter<PointerInput>,
     mut exit: MessageWriter<AppExit>,
 ) {
@@ -155,11 +176,16 @@ fn synthetic_click_and_screenshot(
             .observe(save_to_disk(path));
     }
     if *frame == 44 {
-        if selected.0 == Some(target.0) {
+        // Every mesh, the bunnies from the OBJ file included, loaded by now.
+        let loaded = bunnies.iter().all(|m| meshes.contains(&m.0));
+        if selected.0 == Some(target.0) && loaded {
             info!("selected the expected cube {}", target.0);
             exit.write(AppExit::Success);
         } else {
-            error!("selected {:?}, expected {}", selected.0, target.0);
+            error!(
+                "selected {:?}, expected {}; every mesh loaded: {loaded}",
+                selected.0, target.0
+            );
             exit.write(AppExit::error());
         }
     }
