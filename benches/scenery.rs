@@ -16,6 +16,7 @@
 //! `cargo bench --workspace --profile dev --bench scenery -- [--entities 4096,100000,1000000]
 //! [--stream 1,1000] [--frames 60] [--trace]`
 //!
+//! The loading frame (the first update, with every box new) is printed on stderr.
 //! `--trace` prints every frame's times on stderr, with the frames that swapped a static tree
 //! in marked, and the plugin's sync and culling times.
 
@@ -65,6 +66,8 @@ struct Level {
     rng: Rng,
     side: f32,
     class: VisibilityClass,
+    /// The first update, which takes the whole level in: a loading frame.
+    load: Duration,
 }
 
 impl Level {
@@ -103,6 +106,7 @@ impl Level {
             rng: Rng::new(0x5ce7e),
             side,
             class,
+            load: Duration::ZERO,
         };
         for _ in 0..n {
             level.spawn_one();
@@ -112,7 +116,16 @@ impl Level {
             .app
             .world_mut()
             .spawn((Camera::default(), transform, frustum));
+        let start = Instant::now();
         level.app.update();
+        level.load = start.elapsed();
+        if let Some(stats) = level.app.world().get_resource::<AccelStats>() {
+            eprintln!(
+                "loading frame: sync {:.1} ms, maintenance {:.1} ms",
+                ms(stats.sync_time),
+                ms(stats.maintain_time)
+            );
+        }
         level
     }
 
@@ -182,6 +195,9 @@ fn main() {
     for &n in &sizes {
         for &k in &streams {
             let mut levels: Vec<Level> = Contender::ALL.iter().map(|&c| Level::new(c, n)).collect();
+            for (level, c) in levels.iter().zip(Contender::ALL) {
+                eprintln!("{n} {}: loading frame {:.1} ms", c.label(), ms(level.load));
+            }
             let mut times = vec![Vec::with_capacity(frames); levels.len()];
             let mut swaps = vec![0usize; levels.len()];
             for frame in 0..frames {

@@ -6,7 +6,7 @@ use crate::prefetch::prefetch_all;
 use crate::scenery::{StaticScenery, StaticSwap};
 use accel::dynamic::DynamicBvh;
 use accel::query::{AnyHandle, IndexError};
-use accel::{Aabb, BuildConfig, Bvh, SahCosts};
+use accel::{Aabb, Bvh};
 use bevy::prelude::*;
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -20,29 +20,6 @@ pub enum TreeSlot {
     /// Static, and held in the dynamic index under this handle until the next static tree,
     /// built off the frame, takes it in (see [`AccelTrees::static_waiting_len`]).
     StaticWaiting(AnyHandle),
-}
-
-/// The static tree's build. A primitive here is an entity: testing one reads its slot entry
-/// at a random place, and one that passes goes on to ECS lookups and a mesh BVH, so a
-/// primitive test is costed at four node visits (the default costs a node visit at two
-/// primitive tests, right for triangles). Leaves come out with one or two entities instead of
-/// up to eight: on the picking bench, rays then reach about a third as many candidates.
-///
-/// Built with PLOC rather than binned SAH: the static tree is rebuilt whenever static
-/// entities come or go, in the frame, and at a million entities PLOC builds it in well under
-/// half the binned build's time, while rays and views ran as fast or faster on its trees in
-/// the picking, culling and light benches (BENCHMARKS.md, Static BVH builds;
-/// docs/experiments.md, same section).
-pub(crate) fn entity_tree_config() -> BuildConfig {
-    BuildConfig {
-        split: accel::SplitStrategy::PLOC_FASTEST,
-        max_leaf_size: 4,
-        sah: SahCosts {
-            traversal: 1.0,
-            intersection: 4.0,
-        },
-        ..BuildConfig::default()
-    }
 }
 
 /// What the sync writes for a slot each time its entity moves, and what a ray's candidate
@@ -167,6 +144,9 @@ pub struct AccelTrees {
     scenery: StaticScenery,
     /// Tracked entities in [`TreeSlot::StaticWaiting`].
     static_waiting: usize,
+    /// Slots of static newcomers placed since the last [`Self::advance_static`]: marked
+    /// [`TreeSlot::Static`] before any tree holds them (see [`Self::place`]).
+    fresh_static: Vec<u32>,
     /// Rays cast through `AccelRayCast` (and other users of [`Self::count_rays`]) since the
     /// last maintenance: what decides whether the dynamic tree's ray snapshot is worth refitting.
     rays_cast: AtomicU32,
@@ -360,20 +340,24 @@ impl AccelTrees {
                     self.remove(stale);
                 }
                 let slot = self.allocate_slot(entity, bounds, frame);
-                // A static newcomer waits in the dynamic index for the next static tree
-                // (see `scenery`): a static box that changed comes here too, as a leaver
-                // and a newcomer in a new slot, since the trees may still hold the old slot.
-                self.pending_upkeep = true;
-                let tree = match self.index.insert(slot, bounds) {
-                    Ok(handle) if is_static => {
-                        self.scenery.add(slot, bounds);
-                        self.static_waiting += 1;
-                        TreeSlot::StaticWaiting(handle)
-                    }
-                    Ok(handle) => TreeSlot::Dynamic(handle),
-                    Err(e) => {
-                        self.release_slot(slot);
-                        return Placed::Refused(refusal(e));
+                // A static newcomer is wanted in the next static tree (see `scenery`); a
+                // static box that changed comes here too, as a leaver and a newcomer in a new
+                // slot, since the trees may still hold the old slot. It is marked static
+                // here and goes into the dynamic index only if that tree is not built in
+                // this frame (`advance_static`): a level loaded in one frame would otherwise
+                // be inserted into the dynamic index one entity at a time and taken out again.
+                let tree = if is_static {
+                    self.scenery.add(slot, bounds);
+                    self.fresh_static.push(slot);
+                    TreeSlot::Static
+                } else {
+                    self.pending_upkeep = true;
+                    match self.index.insert(slot, bounds) {
+                        Ok(handle) => TreeSlot::Dynamic(handle),
+                        Err(e) => {
+                            self.release_slot(slot);
+                            return Placed::Refused(refusal(e));
+                        }
                     }
                 };
                 if self.tracked_by_index.len() <= index {
@@ -475,12 +459,44 @@ impl AccelTrees {
     /// was swapped in. The static tree is built over slot-indexed boxes (empty slots are
     /// left out by the builder), so its primitive ids are slots, like the dynamic index's.
     pub(crate) fn advance_static(&mut self, in_frame_up_to: usize) -> bool {
-        match self.scenery.advance(in_frame_up_to) {
-            Some(swap) => {
-                self.swap_static(swap);
-                true
+        let swap = self.scenery.advance(in_frame_up_to);
+        let built_in_frame = swap.as_ref().is_some_and(|swap| swap.built_in_frame);
+        let swapped = swap.is_some();
+        if let Some(swap) = swap {
+            self.swap_static(swap);
+        }
+        let fresh = core::mem::take(&mut self.fresh_static);
+        if !built_in_frame {
+            // No tree holds this frame's newcomers yet: they wait in the dynamic index.
+            for slot in fresh {
+                self.index_waiting_static(slot);
             }
-            None => false,
+        }
+        swapped
+    }
+
+    /// Puts a static newcomer placed this frame, if still tracked in `slot`, into the dynamic
+    /// index until a static tree holds it.
+    fn index_waiting_static(&mut self, slot: u32) {
+        let Some(entity) = self.entities_by_slot[slot as usize] else {
+            return;
+        };
+        let bounds = self.slots[slot as usize].bounds();
+        let Some(Some(record)) = self.tracked_by_index.get_mut(entity.index_u32() as usize) else {
+            return;
+        };
+        if record.slot != slot || record.tree != TreeSlot::Static {
+            return;
+        }
+        match self.index.insert(slot, bounds) {
+            Ok(handle) => {
+                record.tree = TreeSlot::StaticWaiting(handle);
+                self.static_waiting += 1;
+                self.pending_upkeep = true;
+            }
+            // The static tree takes boxes the dynamic index refuses (a fat box that would
+            // overflow): this one is found once the tree being built lands.
+            Err(e) => warn!("bevy_accel: {entity} waits for the next static tree ({e})"),
         }
     }
 
