@@ -6,7 +6,7 @@
 //! hundreds of milliseconds). So a change of the static set is split in two:
 //!
 //! - **In the frame**, O(1) per entity: a newcomer goes into the dynamic index, where queries
-//!   find it at once; a leaver's slot is *retired*: its entity and exact box are cleared, so
+//!   find it at once (unless a tree holding it is built in the same frame); a leaver's slot is *retired*: its entity and exact box are cleared, so
 //!   the static tree may still report the slot but no query callback finds anything there,
 //!   and the slot is not reused while any tree still holds it.
 //! - **Off the frame**: the next static tree, with its ray form and spans
