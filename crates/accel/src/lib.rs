@@ -7,6 +7,8 @@
 //!   ray/sphere quadratic, the watertight ray/triangle test, and three-way frustum
 //!   classification.
 //!
+//! - [`bsp`]: the polygon-aligned BSP tree over one mesh's triangles (painter's orders from
+//!   any eye point, robust cuts that share their points, exact ray queries).
 //! - [`bvh`]: the static BVH with every textbook build choice (midpoint, median, binned and
 //!   sweep SAH top-down, PLOC bottom-up; leaf size, depth and cost stopping rules).
 //! - [`dynamic`]: the dynamic BVH (insert, remove and update by handle, batched refit, SAH
@@ -22,6 +24,7 @@
 //! panics on non-finite input.
 #![warn(missing_docs)]
 
+pub mod bsp;
 pub mod bvh;
 pub mod dynamic;
 pub mod geometry;

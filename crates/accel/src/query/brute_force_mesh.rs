@@ -16,29 +16,9 @@ pub struct BruteForceMesh {
 impl BruteForceMesh {
     /// The mesh of an indexed triangle list (triangle `i` uses `indices[3i..3i + 3]`).
     pub fn new(vertices: &[glam::Vec3], indices: &[u32]) -> Result<Self, MeshError> {
-        if !indices.len().is_multiple_of(3) {
-            return Err(MeshError::NotATriangleList {
-                index_count: indices.len(),
-            });
-        }
-        let corner = |i: u32| {
-            vertices
-                .get(i as usize)
-                .copied()
-                .ok_or(MeshError::IndexOutOfRange {
-                    index: i,
-                    vertex_count: vertices.len(),
-                })
-        };
-        let triangles = indices
-            .chunks_exact(3)
-            .map(|t| {
-                let tri = Triangle::new(corner(t[0])?, corner(t[1])?, corner(t[2])?);
-                let finite = tri.vertices.iter().all(|v| v.is_finite());
-                Ok(finite.then_some(tri))
-            })
-            .collect::<Result<_, MeshError>>()?;
-        Ok(Self { triangles })
+        Ok(Self {
+            triangles: mesh_triangles(vertices, indices)?,
+        })
     }
 
     fn finite(&self) -> impl Iterator<Item = (u32, &Triangle)> {
@@ -48,7 +28,8 @@ impl BruteForceMesh {
             .filter_map(|(i, t)| t.as_ref().map(|t| (i as u32, t)))
     }
 
-    fn record(triangle: u32, tri: &Triangle, hit: crate::TriangleHit) -> MeshHit {
+    /// The hit record of triangle `triangle` (corners `tri`), as every mesh query gives it.
+    pub(crate) fn record(triangle: u32, tri: &Triangle, hit: crate::TriangleHit) -> MeshHit {
         let [a, b, c] = tri.vertices;
         MeshHit {
             t: hit.t,
@@ -109,4 +90,34 @@ impl TriangleQuery for BruteForceMesh {
             }
         }
     }
+}
+
+/// Triangle `i` of an indexed triangle list (`indices[3i..3i + 3]`), or `None` when a corner
+/// is not finite: what every structure over one mesh starts from.
+pub(crate) fn mesh_triangles(
+    vertices: &[glam::Vec3],
+    indices: &[u32],
+) -> Result<Vec<Option<Triangle>>, MeshError> {
+    if !indices.len().is_multiple_of(3) {
+        return Err(MeshError::NotATriangleList {
+            index_count: indices.len(),
+        });
+    }
+    let corner = |i: u32| {
+        vertices
+            .get(i as usize)
+            .copied()
+            .ok_or(MeshError::IndexOutOfRange {
+                index: i,
+                vertex_count: vertices.len(),
+            })
+    };
+    indices
+        .chunks_exact(3)
+        .map(|t| {
+            let tri = Triangle::new(corner(t[0])?, corner(t[1])?, corner(t[2])?);
+            let finite = tri.vertices.iter().all(|v| v.is_finite());
+            Ok(finite.then_some(tri))
+        })
+        .collect()
 }

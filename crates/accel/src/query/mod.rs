@@ -35,6 +35,7 @@ pub mod walks;
 
 pub use brute_force::{BruteForceIndex, FlatHandle};
 pub use brute_force_mesh::BruteForceMesh;
+pub(crate) use brute_force_mesh::mesh_triangles;
 pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
 pub use nodes::{NodeView, visit_tree_nodes};

@@ -5,10 +5,11 @@ use crate::{Aabb, Backfaces, Ray};
 
 /// Exact queries on the triangles of one mesh, in the mesh's own space.
 ///
-/// [`MeshBvh`](crate::mesh::MeshBvh) implements it, and so does
-/// [`BruteForceMesh`](super::BruteForceMesh), the oracle it is checked against; the kd-tree
-/// and the BSP tree will. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks
-/// decide, these answers are final: the structure runs the watertight triangle test itself
+/// [`MeshBvh`](crate::mesh::MeshBvh) implements it, as do [`BspTree`](crate::bsp::BspTree)
+/// (which tests the whole source of each cut piece a ray reaches) and
+/// [`BruteForceMesh`](super::BruteForceMesh), the oracle they are checked against; the
+/// kd-tree will. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks decide, these
+/// answers are final: the structure runs the watertight triangle test itself
 /// (Woop, Benthin and Wald 2013), so every implementation gives the same hits, to the bit.
 ///
 /// ```

@@ -18,6 +18,7 @@ mod spatial;
 mod toy_tree;
 mod triangles;
 
+use accel::bsp::BspTree;
 use accel::bvh::SphereBvh;
 use accel::bvh::validate::validate_tree;
 use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
@@ -240,4 +241,32 @@ fn meshes_against_brute_force() {
         &soup_indices,
         14,
     );
+}
+
+#[test]
+fn bsp_trees_against_brute_force() {
+    let bunny = accel_testkit::bunny();
+    let (vertices, indices) = (bunny.positions(), bunny.flat_indices());
+    let tree = BspTree::new(&vertices, &indices).unwrap();
+    tree.validate().unwrap();
+    check_triangles("BspTree, bunny", &tree, &vertices, &indices, 21);
+
+    // Large triangles through each other, cut many times, with degenerate and non-finite
+    // ones among them: the rays test the whole source of every piece they reach.
+    let mut rng = Rng::new(22);
+    let mut soup: Vec<Vec3> = Vec::new();
+    for i in 0..300 {
+        let size = if i % 3 == 0 { 12.0 } else { 2.0 };
+        let base = rng.vec3(-10.0, 10.0);
+        soup.extend((0..3).map(|_| base + rng.vec3(-size, size)));
+    }
+    soup.extend([Vec3::ONE, Vec3::ONE, Vec3::ONE]);
+    soup.extend([Vec3::ZERO, Vec3::splat(3.0), Vec3::splat(6.0)]);
+    soup.extend([Vec3::ZERO, Vec3::NAN, Vec3::X]);
+    let soup_indices: Vec<u32> = (0..soup.len() as u32).collect();
+    let tree = BspTree::new(&soup, &soup_indices).unwrap();
+    tree.validate().unwrap();
+    assert!(tree.stats().splits > 100, "{:?}", tree.stats());
+    assert_eq!((tree.stats().degenerate, tree.stats().non_finite), (2, 1));
+    check_triangles("BspTree, soup", &tree, &soup, &soup_indices, 23);
 }
