@@ -17,6 +17,8 @@
 //!   entries' density, rays by 3D DDA, each entry reported once per query without shared state).
 //! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
 //!   size gives, O(depth) edits, a move inside its loose cell one box write).
+//! - [`preview`]: a progressive CPU ray-traced preview (shaded, ambient occlusion, path
+//!   traced, and views of normals, depth, ids and traversal cost) over any scene.
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
 //!   ray hits; box, sphere and point overlap; frustum; k nearest).
 //!
@@ -32,6 +34,7 @@ pub mod grid;
 pub mod mesh;
 pub mod octree;
 mod prefetch;
+pub mod preview;
 pub mod query;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};

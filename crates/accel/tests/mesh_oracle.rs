@@ -417,6 +417,51 @@ fn singular_transform() -> Affine3A {
     Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0))
 }
 
+/// The counting walk (`cast_ray_counted`, for heat maps) finds the fast walk's closest hit,
+/// on meshes and on a two-level scene with mirrored instances, and counts work that grows
+/// with what the ray passes: at least one node and one triangle for a hit, both levels'
+/// nodes in a scene, a leaf depth exactly when there is a hit.
+#[test]
+fn counted_walks_find_the_fast_walks_hits() {
+    let mut rng = Rng::new(31);
+    let (_, bvhs) = two_meshes(&mut rng);
+    let instances: Vec<Instance> = (0..120)
+        .map(|i| Instance {
+            mesh: bvhs[i % 2].clone(),
+            world_from_local: random_transform(&mut rng),
+        })
+        .collect();
+    let scene = InstancedScene::new(instances);
+    let (mut hits, mut deeper) = (0, 0);
+    for _ in 0..3000 {
+        let ray = random_ray(&mut rng, 60.0);
+        for bf in [Backfaces::Include, Backfaces::Cull] {
+            for mesh in &bvhs {
+                let local = Ray::new(ray.origin / 10.0, ray.direction);
+                let counted = mesh.cast_ray_counted(&local, bf);
+                assert_eq!(counted.hit, mesh.cast_ray(&local, bf));
+                assert_eq!(counted.leaf_depth.is_some(), counted.hit.is_some());
+                if counted.hit.is_some() {
+                    assert!(counted.cost.nodes >= 1 && counted.cost.triangles >= 1);
+                }
+            }
+            let counted = scene.cast_ray_counted(&ray, bf);
+            assert_eq!(counted.hit, scene.cast_ray(&ray, bf));
+            assert_eq!(counted.leaf_depth.is_some(), counted.hit.is_some());
+            if let Some(depth) = counted.leaf_depth {
+                hits += 1;
+                // A top-level node and a mesh node at least.
+                assert!(depth >= 2 && counted.cost.nodes >= 2 && counted.cost.triangles >= 1);
+                deeper += usize::from(depth > 2);
+            }
+        }
+    }
+    assert!(
+        hits > 1000 && deeper > 0,
+        "{hits} hits, {deeper} below depth 2"
+    );
+}
+
 #[test]
 fn two_level_scene_matches_brute_force() {
     let mut rng = Rng::new(8);

@@ -64,6 +64,53 @@ fn nan_rays_miss_everything() {
     assert!(Ray::new(Vec3A::ZERO, Vec3A::ZERO).is_degenerate());
 }
 
+/// NaN rays through the wide trees and the mesh scenes built on them: every slab distance is
+/// NaN there, which the lane tests ignore, so without the walk's degenerate-ray check every
+/// slot passed, unused ones too, and the walk indexed past the node array.
+#[test]
+fn nan_rays_miss_wide_trees_and_mesh_scenes() {
+    use accel::bvh::wide::{Bvh8, Bvh16};
+    use accel::mesh::{Instance, InstancedScene, MeshBvh};
+    use accel::{BuildConfig, Bvh, SpatialQuery};
+    use std::sync::Arc;
+    // Three boxes: a root with unused slots.
+    let boxes: Vec<Aabb> = (0..3)
+        .map(|i| Aabb::new(Vec3A::splat(i as f32), Vec3A::splat(i as f32 + 0.5)))
+        .collect();
+    let bvh = Bvh::build(&boxes, &BuildConfig::default());
+    let (wide8, wide16) = (Bvh8::from_bvh(&bvh), Bvh16::from_bvh(&bvh));
+    let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+    let mesh = Arc::new(MeshBvh::new(&quad, &[0, 1, 2, 0, 2, 3]).unwrap());
+    let scene = InstancedScene::new(
+        (0..3)
+            .map(|i| Instance {
+                mesh: mesh.clone(),
+                world_from_local: Affine3A::from_translation(Vec3::splat(i as f32)),
+            })
+            .collect(),
+    );
+    let ok = Vec3A::new(0.1, 0.2, 1.0);
+    for v in special_vectors().into_iter().filter(|&v| has_nan(v)) {
+        for ray in [Ray::new(v, ok), Ray::new(Vec3A::ZERO, v), Ray::new(v, v)] {
+            let any = |_: u32, _: &Ray| true;
+            let closest = |_: u32, _: &Ray| Some(0.0);
+            assert!(
+                wide8.cast_ray(&ray, closest).is_none() && wide8.cast_ray_any(&ray, any).is_none()
+            );
+            assert!(
+                wide16.cast_ray(&ray, closest).is_none()
+                    && wide16.cast_ray_any(&ray, any).is_none()
+            );
+            for bf in [Backfaces::Include, Backfaces::Cull] {
+                assert!(mesh.cast_ray(&ray, bf).is_none() && !mesh.cast_ray_any(&ray, bf));
+                assert!(scene.cast_ray(&ray, bf).is_none() && !scene.cast_ray_any(&ray, bf));
+                let counted = scene.cast_ray_counted(&ray, bf);
+                assert!(counted.hit.is_none() && counted.cost.nodes == 0);
+            }
+        }
+    }
+}
+
 #[test]
 fn box_validity() {
     assert!(!Aabb::EMPTY.is_valid() && Aabb::EMPTY.is_empty());

@@ -87,7 +87,7 @@ impl std::error::Error for MeshError {}
 pub struct MeshBvh {
     /// The tree over packets: its primitive ids are packet indices.
     tree: MeshTree,
-    packets: LeafPackets,
+    pub(super) packets: LeafPackets,
     /// The packet boxes of the last refit, kept so refits do not allocate (and fault in) a
     /// fresh array each frame.
     refit_boxes: Vec<Aabb>,
@@ -317,7 +317,7 @@ impl MeshBvh {
             + (self.refit_boxes.capacity() + self.piece_boxes.capacity()) * size_of::<Aabb>()
     }
 
-    fn hit_record(&self, packet: u32, lane: usize, hit: crate::TriangleHit) -> MeshHit {
+    pub(super) fn hit_record(&self, packet: u32, lane: usize, hit: crate::TriangleHit) -> MeshHit {
         let [a, b, c] = self.packets.corners(packet, lane);
         MeshHit {
             t: hit.t,

@@ -2,9 +2,12 @@
 //!
 //! - [`MeshBvh`]: a 16-wide BVH over one mesh's indexed triangles, with the watertight test.
 //! - [`MeshHit`]: where a ray met a mesh, with interpolation of vertex attributes.
+//! - [`TraversalCost`]: the work of one ray's walk, counted by a separate walk
+//!   ([`MeshBvh::cast_ray_counted`], [`InstancedScene::cast_ray_counted`]) for heat maps.
 //! - [`InstancedScene`]: instances of shared meshes under transforms, under a top-level BVH,
 //!   updated in place as instances move ([`InstancedScene::update_instances`]).
 
+mod counted;
 mod hit;
 mod leaf_merge;
 mod mesh_bvh;
@@ -15,8 +18,10 @@ mod sbvh_spatial;
 mod scene;
 mod scene_update;
 
+pub use counted::{CountedHit, TraversalCost};
 pub use hit::MeshHit;
 pub use mesh_bvh::{MeshBvh, MeshError};
 pub use sbvh::SpatialSplits;
+pub(crate) use scene::is_placeable;
 pub use scene::{Instance, InstanceHit, InstancedScene};
 pub use scene_update::SceneUpdateError;

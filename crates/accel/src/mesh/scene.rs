@@ -29,8 +29,8 @@ pub struct InstanceHit {
 
 #[derive(Clone, Debug)]
 pub(super) struct PlacedInstance {
-    mesh: Arc<MeshBvh>,
-    local_from_world: Affine3A,
+    pub(super) mesh: Arc<MeshBvh>,
+    pub(super) local_from_world: Affine3A,
     /// Inverse-transpose of the linear part: how normals go from local to world.
     normal_to_world: glam::Mat3A,
 }
@@ -40,8 +40,7 @@ impl PlacedInstance {
     /// invertible or not finite.
     pub(super) fn place(instance: Instance) -> Option<(Self, Aabb)> {
         let m = instance.world_from_local;
-        let det = m.matrix3.determinant();
-        if !(det.is_finite() && det != 0.0 && m.translation.is_finite()) {
+        if !is_placeable(&m) {
             return None;
         }
         let world_box = instance.mesh.bounds().transformed(&m);
@@ -55,6 +54,14 @@ impl PlacedInstance {
             world_box,
         ))
     }
+}
+
+/// Whether an instance can be placed under `world_from_local`: the transform must be finite
+/// and invertible, or rays could not be taken into its space. Shared with the preview's
+/// brute-force scene, which must leave out exactly the instances the tree leaves out.
+pub(crate) fn is_placeable(world_from_local: &Affine3A) -> bool {
+    let det = world_from_local.matrix3.determinant();
+    det.is_finite() && det != 0.0 && world_from_local.translation.is_finite()
 }
 
 /// A two-level scene: a top-level BVH over instance boxes, each instance a mesh BVH under a
@@ -136,13 +143,13 @@ impl InstancedScene {
         &self.top
     }
 
-    fn instance(&self, i: u32) -> &PlacedInstance {
+    pub(super) fn instance(&self, i: u32) -> &PlacedInstance {
         self.instances[i as usize]
             .as_ref()
             .expect("the top level holds only accepted instances")
     }
 
-    fn to_world(&self, instance: u32, mut hit: MeshHit) -> InstanceHit {
+    pub(super) fn to_world(&self, instance: u32, mut hit: MeshHit) -> InstanceHit {
         let n = self.instance(instance).normal_to_world * hit.geometric_normal;
         hit.geometric_normal = n.normalize_or_zero();
         InstanceHit { instance, hit }

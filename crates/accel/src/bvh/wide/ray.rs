@@ -320,7 +320,13 @@ pub(super) fn visit_ray<
     // lie inside it, so a ray that misses the tree finds no child and stops there. The extra
     // scalar test slowed the rays that start inside the tree (every shadow and bounce ray)
     // for nothing (docs/experiments.md, Rays on meshes).
-    if tree.nodes.is_empty() {
+    //
+    // A degenerate ray stops here: with a NaN origin or direction every slab distance is
+    // NaN, which the lane tests ignore (the rule that keeps an axis-parallel ray on a slab
+    // plane inside it), so every slot, unused ones included, passes against the empty range
+    // `[inf, -inf]`, and the walk would follow an unused slot's `EMPTY_SLOT` child out of
+    // the node array. One compare per ray, not per node.
+    if tree.nodes.is_empty() || ray.is_degenerate() {
         return;
     }
     let lanes = RayLanes::new(ray);
