@@ -1,25 +1,36 @@
-//! Thousands of moving cubes kept in the trees by `AccelPlugin`; the cube under the cursor (or
-//! under the screen centre) is found through the trees every frame and highlighted. The camera
-//! and the shadow views of the sun and of a point light are culled on the trees
-//! (`AccelCullingPlugin`).
+//! Thousands of moving cubes kept in the trees by `AccelPlugin`. The cube under the pointer is
+//! lit, and a click selects it, through `AccelPickingPlugin` (the trees, then each mesh's
+//! BVH). The camera and the shadow views of the sun and of a point light are culled on the
+//! trees (`AccelCullingPlugin`). The panel (`AccelPanelPlugin`, `F1`) switches every service
+//! and overlay, picks the movers' index and the static tree's builder, and plots each
+//! service's time; it also names what the pointer is over, with its triangle and distance.
+//! `F2` switches the ray-traced preview (`AccelPreviewPlugin`) over the view: the same trees
+//! and mesh BVHs, traced on the CPU.
 //!
-//! Debug overlays (`AccelOverlaysPlugin`), toggled by keys:
+//! Debug overlays (`AccelOverlaysPlugin`), in the panel or by keys:
 //! - `1`: the dynamic index's nodes, by depth; `2`: the static tree's nodes;
 //! - `3`: every cube's box, green where the camera sees it, red where it was culled;
 //! - `4`: the camera's frustum (seen from elsewhere: it frames this view);
 //! - `[` and `]`: the deepest tree level drawn; `I`: the next index choice for the movers.
 //!
-//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` saves a frame and exits (the cubes'
-//! motion then follows the frame count, not the clock, so runs can be compared). With
-//! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison;
-//! `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
+//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` clicks a known cube (a synthetic
+//! press and release at its screen position), saves a frame and exits, failing unless that
+//! cube was selected (the cubes' motion then follows the frame count, not the clock, so runs
+//! can be compared). With `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the
+//! trees', for comparison; `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
+use bevy::camera::NormalizedRenderTarget;
+use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
+use bevy::picking::hover::HoverMap;
+use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
 use bevy::prelude::*;
-use bevy::window::PrimaryWindow;
+use bevy::window::{PrimaryWindow, WindowRef};
 use bevy_accel::AccelCullingPlugin;
-use bevy_accel::accel::{Ray, SpatialQuery};
 use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
+use bevy_accel::panel::AccelPanelPlugin;
+use bevy_accel::picking::AccelPickingPlugin;
 use bevy_accel::prelude::*;
+use bevy_accel::preview::AccelPreviewPlugin;
 
 #[path = "support/screenshot.rs"]
 mod screenshot;
@@ -35,20 +46,37 @@ struct Bob {
 #[derive(Resource)]
 struct Palette {
     normal: Handle<StandardMaterial>,
-    highlighted: Handle<StandardMaterial>,
+    hovered: Handle<StandardMaterial>,
+    selected: Handle<StandardMaterial>,
 }
 
-#[derive(Resource, Default)]
-struct Highlighted(Option<Entity>);
+/// Marks the cubes (the floor and the camera are not selectable).
+#[derive(Component)]
+struct Cube;
 
-/// In screenshot mode, the static cube the pointer is placed over, and that must end up
-/// highlighted.
+/// The cube under the pointer and the one last clicked.
+#[derive(Resource, Default, PartialEq)]
+struct Highlight {
+    hovered: Option<Entity>,
+    selected: Option<Entity>,
+}
+
+/// In screenshot mode, the static cube the synthetic click aims at, and that must end up
+/// selected.
 #[derive(Resource)]
 struct Target(Entity, Vec3);
 
 fn main() -> AppExit {
     let mut app = App::new();
-    app.add_plugins((DefaultPlugins, AccelPlugin::default(), AccelOverlaysPlugin));
+    app.add_plugins((
+        DefaultPlugins,
+        FrameTimeDiagnosticsPlugin::default(),
+        AccelPlugin::default(),
+        AccelPickingPlugin,
+        AccelOverlaysPlugin,
+        AccelPanelPlugin,
+        AccelPreviewPlugin,
+    ));
     if std::env::var_os("ACCEL_BEVY_CULLING").is_none() {
         app.add_plugins(AccelCullingPlugin);
     }
@@ -61,13 +89,19 @@ fn main() -> AppExit {
             ..default()
         });
     }
-    app.init_resource::<Highlighted>()
+    app.init_resource::<Highlight>()
         .add_systems(Startup, setup)
-        .add_systems(Update, (bob, toggle_overlays, screenshot_and_exit))
         .add_systems(
-            PostUpdate,
-            highlight_under_cursor.after(AccelSystems::Maintain),
+            Update,
+            (
+                bob,
+                toggle_overlays,
+                (track_hover, paint_highlight).chain(),
+                synthetic_click,
+                screenshot_and_exit,
+            ),
         )
+        .add_observer(select_on_click)
         .run()
 }
 
@@ -78,7 +112,8 @@ fn setup(
 ) {
     let cube = meshes.add(Cuboid::new(0.8, 0.8, 0.8));
     let normal = materials.add(Color::srgb(0.35, 0.45, 0.6));
-    let highlighted = materials.add(Color::srgb(1.0, 0.55, 0.1));
+    let hovered = materials.add(Color::srgb(0.75, 0.85, 1.0));
+    let selected = materials.add(Color::srgb(1.0, 0.55, 0.1));
     let mut target = None;
     for x in -GRID / 2..GRID / 2 {
         for z in -GRID / 2..GRID / 2 {
@@ -87,6 +122,8 @@ fn setup(
                 Mesh3d(cube.clone()),
                 MeshMaterial3d(normal.clone()),
                 Transform::from_translation(home),
+                Cube,
+                Name::new(format!("cube ({x}, {z})")),
             ));
             // Every other row bobs; the rest never move and live in the static tree.
             if z % 2 == 0 {
@@ -104,7 +141,8 @@ fn setup(
     }
     commands.insert_resource(Palette {
         normal,
-        highlighted,
+        hovered,
+        selected,
     });
     if let Some(target) = target {
         commands.insert_resource(target);
@@ -181,55 +219,118 @@ fn toggle_overlays(
     }
 }
 
-/// Casts the pointer's ray through the trees: candidates by box, nearest first.
-fn highlight_under_cursor(
-    window: Single<&Window, With<PrimaryWindow>>,
-    camera: Single<(&Camera, &GlobalTransform)>,
-    trees: Res<AccelTrees>,
-    target: Option<Res<Target>>,
-    palette: Res<Palette>,
-    mut highlighted: ResMut<Highlighted>,
-    mut materials: Query<&mut MeshMaterial3d<StandardMaterial>>,
+/// The nearest cube among the mouse's hover hits (bevy_picking's, through the trees). Over
+/// the panel, bevy_egui's own hit blocks the scene, and nothing is hovered.
+fn track_hover(
+    hovers: Res<HoverMap>,
+    cubes: Query<(), With<Cube>>,
+    mut highlight: ResMut<Highlight>,
 ) {
-    let (camera, camera_tf) = *camera;
-    // In screenshot mode the pointer is placed over a known static cube.
-    let aimed = target
-        .filter(|_| screenshot::screenshot_mode())
-        .and_then(|t| camera.world_to_viewport(camera_tf, t.1).ok());
-    let pointer = aimed
-        .or(window.cursor_position())
-        .unwrap_or(window.size() * 0.5);
-    let Ok(ray) = camera.viewport_to_world(camera_tf, pointer) else {
-        return;
-    };
-    let ray = Ray::new(ray.origin, Vec3::from(ray.direction));
-    let hit = trees
-        .query()
-        .cast_ray(&ray, |slot, r| r.intersect_aabb(&trees.world_bounds(slot)))
-        .and_then(|h| trees.entity(h.primitive));
-    if hit == highlighted.0 {
-        return;
+    let hovered = hovers.get(&PointerId::Mouse).and_then(|hits| {
+        hits.iter()
+            .filter(|(e, _)| cubes.contains(**e))
+            .min_by(|a, b| a.1.depth.total_cmp(&b.1.depth))
+            .map(|(e, _)| *e)
+    });
+    if highlight.hovered != hovered {
+        highlight.hovered = hovered;
     }
-    for (entity, handle) in [
-        (highlighted.0, &palette.normal),
-        (hit, &palette.highlighted),
-    ] {
-        if let Some(mut m) = entity.and_then(|e| materials.get_mut(e).ok()) {
-            m.0 = handle.clone();
-        }
-    }
-    if let Some(e) = hit {
-        info!("pointer over {e}");
-    }
-    highlighted.0 = hit;
 }
 
-/// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the cube under the
-/// placed pointer is the one highlighted.
+fn select_on_click(
+    click: On<Pointer<Click>>,
+    cubes: Query<(), With<Cube>>,
+    mut highlight: ResMut<Highlight>,
+) {
+    if cubes.contains(click.entity) {
+        info!(
+            "selected {} at distance {:.2}",
+            click.entity, click.hit.depth
+        );
+        highlight.selected = Some(click.entity);
+    }
+}
+
+/// Repaints the cubes whose state changed: selected orange, hovered pale.
+fn paint_highlight(
+    highlight: Res<Highlight>,
+    mut painted: Local<Highlight>,
+    palette: Res<Palette>,
+    mut materials: Query<&mut MeshMaterial3d<StandardMaterial>, With<Cube>>,
+) {
+    if *highlight == *painted {
+        return;
+    }
+    let look = |e: Entity| {
+        if highlight.selected == Some(e) {
+            &palette.selected
+        } else if highlight.hovered == Some(e) {
+            &palette.hovered
+        } else {
+            &palette.normal
+        }
+    };
+    for entity in [
+        painted.hovered,
+        painted.selected,
+        highlight.hovered,
+        highlight.selected,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        if let Ok(mut m) = materials.get_mut(entity) {
+            m.0 = look(entity).clone();
+        }
+    }
+    *painted = Highlight {
+        hovered: highlight.hovered,
+        selected: highlight.selected,
+    };
+}
+
+/// Screenshot mode: moves the mouse pointer over the target cube, then presses and releases
+/// its primary button there, as bevy_picking's input from a window would.
+fn synthetic_click(
+    mut frame: Local<u32>,
+    window: Single<Entity, With<PrimaryWindow>>,
+    camera: Single<(&Camera, &GlobalTransform)>,
+    target: Option<Res<Target>>,
+    mut input: MessageWriter<PointerInput>,
+) {
+    if !screenshot::screenshot_mode() {
+        return;
+    }
+    *frame += 1;
+    let (camera, camera_tf) = *camera;
+    let Some(target) = target else { return };
+    let (Ok(position), Some(window_ref)) = (
+        camera.world_to_viewport(camera_tf, target.1),
+        WindowRef::Primary.normalize(Some(*window)),
+    ) else {
+        return;
+    };
+    let location = Location {
+        target: NormalizedRenderTarget::Window(window_ref),
+        position,
+    };
+    let action = match *frame {
+        10 => Some(PointerAction::Move { delta: Vec2::ZERO }),
+        12 => Some(PointerAction::Press(PointerButton::Primary)),
+        14 => Some(PointerAction::Release(PointerButton::Primary)),
+        _ => None,
+    };
+    if let Some(action) = action {
+        input.write(PointerInput::new(PointerId::Mouse, location, action));
+    }
+}
+
+/// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the clicked cube is
+/// the one selected.
 fn screenshot_and_exit(
     mut commands: Commands,
     mut frame: Local<u32>,
-    highlighted: Res<Highlighted>,
+    highlight: Res<Highlight>,
     target: Option<Res<Target>>,
     mut exit: MessageWriter<AppExit>,
 ) {
@@ -239,7 +340,7 @@ fn screenshot_and_exit(
     let expected = target.map(|t| t.0);
     screenshot::exit_with(
         &mut exit,
-        highlighted.0.is_some() && highlighted.0 == expected,
-        format!("highlighted {:?}, expected {expected:?}", highlighted.0),
+        highlight.selected.is_some() && highlight.selected == expected,
+        format!("selected {:?}, expected {expected:?}", highlight.selected),
     );
 }

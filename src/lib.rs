@@ -50,9 +50,13 @@ mod local_frame;
 mod meshes;
 #[cfg(feature = "overlays")]
 pub mod overlays;
+#[cfg(feature = "egui")]
+pub mod panel;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod prefetch;
+#[cfg(feature = "preview")]
+pub mod preview;
 mod scenery;
 mod settings;
 mod stats;
@@ -62,11 +66,13 @@ mod trees;
 pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
-pub use culling::AccelCullingPlugin;
+pub use culling::{AccelCullingPlugin, AccelCullingSettings};
 pub use index::{EntityIndex, IndexChoice};
+#[cfg(feature = "sprite_picking")]
+pub use picking::AccelSpritePickingPlugin;
 #[cfg(feature = "picking")]
 pub use picking::{AccelPickingPlugin, AccelRayCast};
-pub use settings::AccelSettings;
+pub use settings::{AccelSettings, StaticTreeBuild};
 pub use stats::AccelStats;
 pub use trees::{AccelTrees, LocalFrame, TreeSlot};
 
@@ -79,7 +85,7 @@ pub mod prelude {
     pub use crate::index::{BvhIndexSettings, IndexChoice};
     pub use crate::{
         AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
-        AccelTracked, AccelTrees,
+        AccelTracked, AccelTrees, StaticTreeBuild,
     };
     #[cfg(feature = "picking")]
     pub use crate::{AccelPickingPlugin, AccelRayCast};
@@ -109,6 +115,7 @@ impl Plugin for AccelPlugin {
         app.insert_resource(self.settings.clone())
             .register_type::<AccelSettings>()
             .register_type::<index::IndexChoice>()
+            .register_type::<StaticTreeBuild>()
             .register_type::<index::BvhIndexSettings>()
             .register_type::<AccelIgnore>()
             .register_type::<AccelStatic>()

@@ -20,6 +20,7 @@
 //! and every set when there is no async compute pool. Figures: BENCHMARKS.md, Static scenery
 //! streaming.
 
+use crate::settings::StaticTreeBuild;
 use accel::dynamic::PreparedStatic;
 use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};
@@ -64,6 +65,8 @@ pub(crate) struct StaticScenery {
     /// Slots retired since the last build started.
     retired: Vec<u32>,
     in_flight: Option<InFlight>,
+    /// The build strategy of the last tree started: a change of strategy rebuilds the tree.
+    built_with: Option<StaticTreeBuild>,
 }
 
 impl StaticScenery {
@@ -105,23 +108,30 @@ impl StaticScenery {
         self.retired.push(slot);
     }
 
-    /// Lands a finished build, or starts one when the set changed: the once-per-frame call.
-    /// `in_frame_up_to` is the set size up to which a build runs here rather than off the
-    /// frame.
-    pub(crate) fn advance(&mut self, in_frame_up_to: usize) -> Option<StaticSwap> {
+    /// Lands a finished build, or starts one when the set or the strategy changed: the
+    /// once-per-frame call. `in_frame_up_to` is the set size up to which a build runs here
+    /// rather than off the frame.
+    pub(crate) fn advance(
+        &mut self,
+        in_frame_up_to: usize,
+        strategy: StaticTreeBuild,
+    ) -> Option<StaticSwap> {
         if let Some(build) = &mut self.in_flight {
             let output = check_ready(&mut build.task)?;
             return Some(self.land(output));
         }
-        if self.waiting.is_empty() && self.retired.is_empty() {
+        let restyled = self.built_with.is_some_and(|b| b != strategy) && self.live > 0;
+        if self.waiting.is_empty() && self.retired.is_empty() && !restyled {
             return None;
         }
+        self.built_with = Some(strategy);
+        let config = entity_tree_config(strategy);
         let tree_len = self.live + self.retired.len() - self.waiting.len();
         let mass_load = self.waiting.len() > tree_len;
         match AsyncComputeTaskPool::try_get() {
             Some(pool) if self.live > in_frame_up_to && !mass_load => {
                 let bounds = core::mem::take(&mut self.bounds);
-                let task = pool.spawn(async move { build(bounds) });
+                let task = pool.spawn(async move { build(bounds, &config) });
                 self.in_flight = Some(InFlight {
                     task,
                     newcomers: core::mem::take(&mut self.waiting),
@@ -130,7 +140,7 @@ impl StaticScenery {
                 None
             }
             _ => {
-                let (prepared, bounds) = build(core::mem::take(&mut self.bounds));
+                let (prepared, bounds) = build(core::mem::take(&mut self.bounds), &config);
                 self.bounds = bounds;
                 Some(StaticSwap {
                     prepared,
@@ -178,9 +188,10 @@ impl StaticScenery {
 /// builds it in well under half the binned build's time, while rays and views ran as fast or faster on its trees in
 /// the picking, culling and light benches (BENCHMARKS.md, Static BVH builds;
 /// docs/experiments.md, same section).
-pub(crate) fn entity_tree_config() -> BuildConfig {
+/// Another [`StaticTreeBuild`] changes only the split strategy.
+pub(crate) fn entity_tree_config(strategy: StaticTreeBuild) -> BuildConfig {
     BuildConfig {
-        split: accel::SplitStrategy::PLOC_FASTEST,
+        split: strategy.split(),
         max_leaf_size: 4,
         sah: SahCosts {
             traversal: 1.0,
@@ -203,7 +214,7 @@ pub(crate) fn free_off_the_frame(old: PreparedStatic) {
 }
 
 /// The static tree over `bounds` (empty boxes are left out, so primitive ids are slots).
-fn build(bounds: Vec<Aabb>) -> BuildOutput {
-    let prepared = PreparedStatic::new(Bvh::build(&bounds, &entity_tree_config()));
+fn build(bounds: Vec<Aabb>, config: &BuildConfig) -> BuildOutput {
+    let prepared = PreparedStatic::new(Bvh::build(&bounds, config));
     (prepared, bounds)
 }

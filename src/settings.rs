@@ -40,6 +40,9 @@ pub struct AccelSettings {
     /// entities streamed its frames faster so (BENCHMARKS.md, Static scenery streaming).
     /// Raise it for tests that want the static tree complete after each update.
     pub static_rebuild_in_frame_up_to: usize,
+    /// How the static tree is built. Changing it rebuilds the static tree (as a change of the
+    /// static set does: off the frame for large sets).
+    pub static_build: StaticTreeBuild,
     /// The BVH backend's settings, read while [`index`](Self::index) is
     /// [`IndexChoice::Bvh`].
     pub bvh: BvhIndexSettings,
@@ -54,6 +57,7 @@ impl Default for AccelSettings {
             index: IndexChoice::default(),
             upkeep_budget_micros: 500,
             static_rebuild_in_frame_up_to: 0,
+            static_build: StaticTreeBuild::default(),
             bvh: BvhIndexSettings::default(),
         }
     }
@@ -63,5 +67,51 @@ impl AccelSettings {
     /// The dynamic index's per-frame improvement budget as a duration.
     pub fn upkeep_budget(&self) -> Duration {
         Duration::from_micros(self.upkeep_budget_micros as u64)
+    }
+}
+
+/// The builder of the static tree, one of the core's [`accel::SplitStrategy`] choices.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default)]
+pub enum StaticTreeBuild {
+    /// PLOC, bottom-up clustering: the fastest build, and trees as good as binned SAH's for
+    /// rays and views over entities (BENCHMARKS.md, Static BVH builds). The default, since the
+    /// tree is rebuilt whenever scenery streams in or out.
+    #[default]
+    Ploc,
+    /// Binned SAH, top-down (32 bins).
+    BinnedSah,
+    /// Full-sweep SAH: the quality reference, the slowest build.
+    SweepSah,
+    /// LBVH: a Morton sort and two linear passes; the fastest to build, the costliest tree.
+    Lbvh,
+    /// Object median on the longest axis: balanced, blind to empty space.
+    Median,
+}
+
+impl StaticTreeBuild {
+    /// Every choice, in declaration order.
+    pub const ALL: [StaticTreeBuild; 5] = [
+        StaticTreeBuild::Ploc,
+        StaticTreeBuild::BinnedSah,
+        StaticTreeBuild::SweepSah,
+        StaticTreeBuild::Lbvh,
+        StaticTreeBuild::Median,
+    ];
+
+    /// The core's split strategy behind this choice.
+    ///
+    /// ```
+    /// use bevy_accel::StaticTreeBuild;
+    /// assert_eq!(StaticTreeBuild::Lbvh.split(), bevy_accel::accel::SplitStrategy::Lbvh);
+    /// ```
+    pub fn split(self) -> accel::SplitStrategy {
+        match self {
+            Self::Ploc => accel::SplitStrategy::PLOC_FASTEST,
+            Self::BinnedSah => accel::SplitStrategy::BinnedSah { bins: 32 },
+            Self::SweepSah => accel::SplitStrategy::SweepSah,
+            Self::Lbvh => accel::SplitStrategy::Lbvh,
+            Self::Median => accel::SplitStrategy::Median,
+        }
     }
 }

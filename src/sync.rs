@@ -217,7 +217,10 @@ pub(crate) fn sync_trees(
             place_moved(true),
         );
     }
-    let static_rebuilt = tree_state.advance_static(settings.static_rebuild_in_frame_up_to);
+    let static_rebuilt = tree_state.advance_static(
+        settings.static_rebuild_in_frame_up_to,
+        settings.static_build,
+    );
     if counts.inserted + counts.updated + counts.removed > 0 || static_rebuilt || switched {
         trees.set_changed();
     }

@@ -458,8 +458,12 @@ impl AccelTrees {
     /// `scenery`): lands a build that finished, or starts one. True when a new static tree
     /// was swapped in. The static tree is built over slot-indexed boxes (empty slots are
     /// left out by the builder), so its primitive ids are slots, like the dynamic index's.
-    pub(crate) fn advance_static(&mut self, in_frame_up_to: usize) -> bool {
-        let swap = self.scenery.advance(in_frame_up_to);
+    pub(crate) fn advance_static(
+        &mut self,
+        in_frame_up_to: usize,
+        strategy: crate::StaticTreeBuild,
+    ) -> bool {
+        let swap = self.scenery.advance(in_frame_up_to, strategy);
         let built_in_frame = swap.as_ref().is_some_and(|swap| swap.built_in_frame);
         let swapped = swap.is_some();
         if let Some(swap) = swap {

@@ -34,7 +34,7 @@ fn a_reused_index_evicts_the_dead_entity_and_keeps_the_new_one() {
         assert!(!trees.remove(dead), "the dead entity was already evicted");
         assert!(trees.contains(newcomer) && trees.contains(other));
         assert_eq!(trees.len(), 2);
-        trees.advance_static(usize::MAX);
+        trees.advance_static(usize::MAX, crate::StaticTreeBuild::default());
         let held = trees.query().dynamic_len() + trees.static_len();
         assert_eq!(held, 2, "each entity in exactly one tree, once");
         let mut listed: Vec<Entity> = trees.iter().map(|(e, _)| e).collect();
@@ -81,6 +81,6 @@ fn slot_records_and_the_packed_array_name_the_same_entity() {
         trees.place(entity(i), at(i as f32), frame, i % 2 == 0);
     }
     agree(&trees, "slots reused");
-    trees.advance_static(usize::MAX);
+    trees.advance_static(usize::MAX, crate::StaticTreeBuild::default());
     agree(&trees, "static tree rebuilt");
 }

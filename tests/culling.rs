@@ -200,6 +200,11 @@ fn visible_sets_equal_bevys_while_the_plugin_pauses() {
     check_camera_paths(Variant::Paused(9..13));
 }
 
+#[test]
+fn visible_sets_equal_bevys_while_culling_leaves_the_trees() {
+    check_camera_paths(Variant::BevyPass(6..15));
+}
+
 /// How the accel app's settings differ from the defaults.
 #[derive(Clone, PartialEq)]
 enum Variant {
@@ -209,6 +214,9 @@ enum Variant {
     /// `AccelSettings::enabled` off over these frames: the trees go stale while entities move
     /// (9..13 holds frame 9, where the parent alone moves far).
     Paused(std::ops::Range<usize>),
+    /// `AccelCullingSettings::use_trees` off over these frames: Bevy's per-entity pass decides
+    /// while the trees keep following the entities.
+    BevyPass(std::ops::Range<usize>),
 }
 
 fn check_camera_paths(variant: Variant) {
@@ -256,11 +264,19 @@ fn check_camera_paths(variant: Variant) {
         Variant::Paused(frames) => frames.clone(),
         _ => 0..0,
     };
+    let bevy_pass = match &variant {
+        Variant::BevyPass(frames) => frames.clone(),
+        _ => 0..0,
+    };
     for frame in 0..25 {
         accel_app
             .world_mut()
             .resource_mut::<AccelSettings>()
             .enabled = !paused.contains(&frame);
+        accel_app
+            .world_mut()
+            .resource_mut::<bevy_accel::AccelCullingSettings>()
+            .use_trees = !bevy_pass.contains(&frame);
         // Move the cameras along a path and the moving parent; identical in both apps. Every
         // third frame nothing moves but some entities are hidden or shown: the culling may
         // reuse its last walk then, and must still see the visibility change.
@@ -341,6 +357,13 @@ fn check_camera_paths(variant: Variant) {
             "the camera path must see something"
         );
         let stats = accel_app.world().resource::<CullingStats>();
+        if bevy_pass.contains(&frame) {
+            // Off the trees, every view takes Bevy's own pass without the trees' word.
+            assert_eq!(
+                (stats.flat_views, stats.flat_views_on_trees),
+                (stats.views, 0)
+            );
+        }
         flat_views += stats.flat_views;
         flat_views_on_trees += stats.flat_views_on_trees;
         tree_views += stats.views - stats.flat_views;
@@ -351,7 +374,7 @@ fn check_camera_paths(variant: Variant) {
     // Both the tree traversal and the flat pass (views that saw most of the world) ran; the
     // narrow view keeps the tree path busy every frame.
     assert!(
-        flat_views > 0 && tree_views >= 25 - paused.len(),
+        flat_views > 0 && tree_views >= 25 - paused.len() - bevy_pass.len(),
         "flat {flat_views}, tree {tree_views}"
     );
     // The flat views took the trees' word where they could (they were current).

@@ -418,3 +418,56 @@ fn unwatched_static_entities_keep_their_box_until_remarked() {
     app.update();
     check_consistency(&mut app);
 }
+
+#[test]
+fn a_new_static_build_strategy_rebuilds_the_static_tree_once() {
+    let mut app = App::new();
+    let settings = AccelSettings {
+        static_rebuild_in_frame_up_to: usize::MAX,
+        ..Default::default()
+    };
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    let mut rng = Rng::new(41);
+    for _ in 0..500 {
+        app.world_mut().spawn((
+            Transform::from_translation(rng.vec3(-50.0, 50.0)),
+            unit_aabb(),
+            AccelStatic,
+        ));
+    }
+    app.update();
+    let hits = |app: &App| {
+        let trees = app.world().resource::<AccelTrees>();
+        let mut out = Vec::new();
+        for k in 0..50 {
+            let ray = bevy_accel::accel::Ray::new(
+                Vec3A::new(k as f32 * 2.0 - 50.0, -60.0, 0.0),
+                Vec3A::new(0.01, 1.0, 0.02),
+            );
+            let mut hits = Vec::new();
+            trees.query().cast_ray_all(
+                &ray,
+                |s, r| r.intersect_aabb(&trees.world_bounds(s)),
+                &mut hits,
+            );
+            out.extend(hits.iter().map(|h| trees.entity(h.primitive).unwrap()));
+        }
+        out
+    };
+    let before = hits(&app);
+    assert!(!before.is_empty());
+    app.update();
+    assert!(!app.world().resource::<AccelStats>().static_rebuilt);
+    for build in StaticTreeBuild::ALL.into_iter().skip(1) {
+        app.world_mut().resource_mut::<AccelSettings>().static_build = build;
+        app.update();
+        assert!(
+            app.world().resource::<AccelStats>().static_rebuilt,
+            "{build:?} rebuilt the tree"
+        );
+        app.update();
+        assert!(!app.world().resource::<AccelStats>().static_rebuilt);
+        assert_eq!(hits(&app), before, "{build:?} finds the same entities");
+        check_consistency(&mut app);
+    }
+}

@@ -39,6 +39,21 @@ use bevy::prelude::*;
 
 pub use stats::CullingStats;
 
+/// Runtime settings of [`AccelCullingPlugin`].
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default)]
+pub struct AccelCullingSettings {
+    /// Cull on the trees. Off, every view (camera and shadow) is decided by Bevy's own
+    /// per-entity loop, as if the plugin were absent: to compare the two at run time.
+    pub use_trees: bool,
+}
+
+impl Default for AccelCullingSettings {
+    fn default() -> Self {
+        Self { use_trees: true }
+    }
+}
+
 /// Replaces Bevy's CPU frustum culling with a traversal of the [`AccelTrees`](crate::AccelTrees).
 ///
 /// Requires [`AccelPlugin`](crate::AccelPlugin). Add it after `DefaultPlugins`, or anywhere: the
@@ -80,6 +95,8 @@ pub struct AccelCullingPlugin;
 impl Plugin for AccelCullingPlugin {
     fn build(&self, app: &mut App) {
         CullingStats::register(app);
+        app.init_resource::<AccelCullingSettings>()
+            .register_type::<AccelCullingSettings>();
         // In `Last`: after the camera and light passes of `PostUpdate`, whichever ran.
         app.add_systems(Last, stats::publish_culling_stats);
         app.init_resource::<CullingStats>().add_systems(

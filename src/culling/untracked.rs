@@ -1,5 +1,6 @@
 //! The entities a view's tree walk cannot find, which every culling pass decides one by one.
 
+use super::AccelCullingSettings;
 use crate::components::{AccelIgnore, AccelTracked};
 use crate::settings::AccelSettings;
 use crate::sync::RejectedEntities;
@@ -45,6 +46,7 @@ type Unmarked = (
 #[derive(SystemParam)]
 pub(crate) struct UntrackedEntities<'w, 's> {
     settings: Res<'w, AccelSettings>,
+    culling: Option<Res<'w, AccelCullingSettings>>,
     rejected: Res<'w, RejectedEntities>,
     never_walked: Query<'w, 's, Entity, NeverWalked>,
     unmarked: Query<'w, 's, Entity, Unmarked>,
@@ -52,10 +54,11 @@ pub(crate) struct UntrackedEntities<'w, 's> {
 }
 
 impl UntrackedEntities<'_, '_> {
-    /// Whether the trees follow the entities this frame. When the plugin is switched off
-    /// ([`AccelSettings::enabled`]) they keep a stale state, and culling must not trust them.
+    /// Whether culling may walk the trees this frame. When the plugin is switched off
+    /// ([`AccelSettings::enabled`]) they keep a stale state, and culling must not trust them;
+    /// with [`AccelCullingSettings::use_trees`] off, Bevy's per-entity pass runs instead.
     pub(crate) fn trees_current(&self) -> bool {
-        self.settings.enabled
+        self.settings.enabled && self.culling.as_ref().is_none_or(|c| c.use_trees)
     }
 
     /// Each entity of the set once.

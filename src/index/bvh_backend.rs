@@ -255,7 +255,10 @@ fn keep_ray_snapshot(
     if due {
         let in_background = pair.dynamic().len() > settings.ray_snapshot_in_frame_max_entities;
         with_pair(trees, |pair| {
-            pair.refresh_dynamic_ray_snapshot(&crate::scenery::entity_tree_config(), in_background)
+            pair.refresh_dynamic_ray_snapshot(
+                &crate::scenery::entity_tree_config(crate::StaticTreeBuild::Ploc),
+                in_background,
+            )
         });
     }
 }

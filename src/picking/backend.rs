@@ -1,7 +1,7 @@
 //! The `bevy_picking` backend system.
 
 use super::ray_cast::AccelRayCast;
-use super::{AccelPickingCamera, AccelPickingSettings};
+use super::{AccelPickingCamera, AccelPickingSettings, AccelPickingStats};
 use bevy::camera::visibility::RenderLayers;
 use bevy::picking::Pickable;
 use bevy::picking::backend::ray::RayMap;
@@ -24,6 +24,8 @@ pub struct AccelHitExtra {
 
 /// Casts each pointer's ray through the trees and writes its [`PointerHits`]: Bevy's mesh
 /// backend (`update_hits`), with [`AccelRayCast`] in place of `MeshRayCast`.
+// A system's parameters are its dependencies; bundling them would only hide them.
+#[allow(clippy::too_many_arguments)]
 pub fn update_hits(
     settings: Res<AccelPickingSettings>,
     ray_map: Res<RayMap>,
@@ -32,7 +34,13 @@ pub fn update_hits(
     layers: Query<&RenderLayers>,
     mut ray_cast: AccelRayCast,
     mut writer: MessageWriter<PointerHits>,
+    mut stats: ResMut<AccelPickingStats>,
 ) {
+    let start = std::time::Instant::now();
+    *stats = AccelPickingStats::default();
+    if !settings.enabled {
+        return;
+    }
     for (&ray_id, &ray) in ray_map.iter() {
         let Ok((camera, marked_camera, camera_layers)) = cameras.get(ray_id.camera) else {
             continue;
@@ -76,8 +84,11 @@ pub fn update_hits(
                 (*entity, data)
             })
             .collect();
+        stats.rays += 1;
+        stats.hits += picks.len();
         if !picks.is_empty() {
             writer.write(PointerHits::new(ray_id.pointer, picks, camera.order as f32));
         }
     }
+    stats.time = start.elapsed();
 }

@@ -11,10 +11,19 @@
 
 mod backend;
 mod ray_cast;
+#[cfg(feature = "sprite_picking")]
+mod sprites;
+mod stats;
 
 pub use crate::meshes::{AccelMeshCache, CachedMesh, MeshShape, SlotMeshTable, SlotMeshTableMode};
 pub use backend::{AccelHitExtra, update_hits};
 pub use ray_cast::AccelRayCast;
+#[cfg(feature = "sprite_picking")]
+pub use sprites::{
+    AccelSpritePickingMode, AccelSpritePickingPlugin, AccelSpritePickingSettings,
+    update_sprite_hits,
+};
+pub use stats::AccelPickingStats;
 
 use crate::meshes;
 
@@ -38,6 +47,9 @@ pub struct AccelPickingCamera;
 #[derive(Resource, Clone, Reflect)]
 #[reflect(Resource, Default)]
 pub struct AccelPickingSettings {
+    /// The backend casts pointer rays. Off, it reports no hits (other backends still do);
+    /// [`AccelRayCast`] keeps working.
+    pub enabled: bool,
     /// Only cameras with [`AccelPickingCamera`] cast, and only entities with `Pickable` are
     /// hit. `false` by default.
     pub require_markers: bool,
@@ -58,6 +70,7 @@ pub struct AccelPickingSettings {
 impl Default for AccelPickingSettings {
     fn default() -> Self {
         Self {
+            enabled: true,
             require_markers: false,
             ray_cast_visibility: RayCastVisibility::VisibleInView,
             slot_mesh_table: SlotMeshTableMode::Auto,
@@ -79,7 +92,13 @@ pub struct AccelPickingPlugin;
 
 impl Plugin for AccelPickingPlugin {
     fn build(&self, app: &mut App) {
+        AccelPickingStats::register(app);
         app.init_resource::<AccelPickingSettings>()
+            .init_resource::<AccelPickingStats>()
+            .add_systems(
+                Last,
+                stats::publish_picking_stats.run_if(resource_exists::<AccelPickingStats>),
+            )
             .init_resource::<AccelMeshCache>()
             .init_resource::<SlotMeshTable>()
             .init_resource::<meshes::PendingSlotMeshes>()
