@@ -5,11 +5,11 @@ use crate::{Aabb, Backfaces, Ray};
 
 /// Exact queries on the triangles of one mesh, in the mesh's own space.
 ///
-/// [`MeshBvh`](crate::mesh::MeshBvh) implements it, and so does
-/// [`BruteForceMesh`](super::BruteForceMesh), the oracle it is checked against; the kd-tree
-/// and the BSP tree will. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks
-/// decide, these answers are final: the structure runs the watertight triangle test itself
-/// (Woop, Benthin and Wald 2013), so every implementation gives the same hits, to the bit.
+/// [`MeshBvh`](crate::mesh::MeshBvh) and [`KdTree`](crate::kdtree::KdTree) implement it, and
+/// so does [`BruteForceMesh`](super::BruteForceMesh), the oracle they are checked against;
+/// the BSP tree will. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks decide,
+/// these answers are final: the structure runs the watertight triangle test itself (Woop,
+/// Benthin and Wald 2013), so every implementation gives the same hits, to the bit.
 ///
 /// ```
 /// use accel::query::{BruteForceMesh, TriangleQuery};
