@@ -15,6 +15,9 @@
 //!   insertion with rotations, incremental optimisation, rebuilds) and the static/dynamic pair.
 //! - [`grid`]: the uniform grid over moving boxes (a hashed sparse grid, cell size from the
 //!   entries' density, rays by 3D DDA, each entry reported once per query without shared state).
+//! - [`kdtree`]: the SAH kd-tree over one mesh's triangles (Wald and Havran's O(N log N) event
+//!   sweep, perfect splits, the empty-space bonus; rays front to back with the watertight
+//!   test).
 //! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
 //!   size gives, O(depth) edits, a move inside its loose cell one box write).
 //! - [`preview`]: a progressive CPU ray-traced preview (shaded, ambient occlusion, path
@@ -31,6 +34,7 @@ pub mod bvh;
 pub mod dynamic;
 pub mod geometry;
 pub mod grid;
+pub mod kdtree;
 pub mod mesh;
 pub mod octree;
 mod prefetch;
@@ -41,6 +45,7 @@ pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};
 pub use geometry::*;
 pub use grid::{GridConfig, GridHandle, UniformGrid};
+pub use kdtree::{KdBuild, KdTree, KdTreeConfig};
 pub use octree::{LooseOctree, OctreeConfig, OctreeHandle, Quadtree};
 pub use query::{BoundingTree, NodeVolume, RayHit, SpatialQuery};
 

@@ -5,12 +5,12 @@ use crate::{Aabb, Backfaces, Ray};
 
 /// Exact queries on the triangles of one mesh, in the mesh's own space.
 ///
-/// [`MeshBvh`](crate::mesh::MeshBvh) implements it, as do [`BspTree`](crate::bsp::BspTree)
-/// (which tests the whole source of each cut piece a ray reaches) and
-/// [`BruteForceMesh`](super::BruteForceMesh), the oracle they are checked against; the
-/// kd-tree will. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks decide, these
-/// answers are final: the structure runs the watertight triangle test itself
-/// (Woop, Benthin and Wald 2013), so every implementation gives the same hits, to the bit.
+/// [`MeshBvh`](crate::mesh::MeshBvh), [`KdTree`](crate::kdtree::KdTree) and
+/// [`BspTree`](crate::bsp::BspTree) (which tests the whole source of each cut piece a ray
+/// reaches) implement it, as does [`BruteForceMesh`](super::BruteForceMesh), the oracle they
+/// are checked against. Unlike [`SpatialQuery`](super::SpatialQuery), whose callbacks decide,
+/// these answers are final: the structure runs the watertight triangle test itself (Woop,
+/// Benthin and Wald 2013), so every implementation gives the same hits, to the bit.
 ///
 /// ```
 /// use accel::query::{BruteForceMesh, TriangleQuery};

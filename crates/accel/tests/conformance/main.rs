@@ -23,6 +23,7 @@ use accel::bvh::SphereBvh;
 use accel::bvh::validate::validate_tree;
 use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
 use accel::dynamic::{DynamicBvh, LayeredIndex, StaticDynamicPair};
+use accel::kdtree::{KdBuild, KdTree, KdTreeConfig};
 use accel::mesh::{MeshBvh, SpatialSplits};
 use accel::query::{AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind};
 use accel::{Aabb, BuildConfig, Bvh, SplitStrategy};
@@ -269,4 +270,78 @@ fn bsp_trees_against_brute_force() {
     assert!(tree.stats().splits > 100, "{:?}", tree.stats());
     assert_eq!((tree.stats().degenerate, tree.stats().non_finite), (2, 1));
     check_triangles("BspTree, soup", &tree, &soup, &soup_indices, 23);
+}
+
+/// The meshes the kd-tree is checked on: the bunny, a soup of large and small overlapping
+/// triangles, a closed icosphere, the test kit's random soup and a small version of the
+/// benchmarks' scene (bunny copies among large triangles), each as vertices and indices.
+fn kd_meshes() -> Vec<(&'static str, Vec<Vec3>, Vec<u32>)> {
+    let mesh = |m: accel_testkit::Mesh| (m.positions(), m.flat_indices());
+    let mut out = Vec::new();
+    let (v, i) = mesh(accel_testkit::bunny());
+    out.push(("bunny", v, i));
+    let mut rng = Rng::new(21);
+    let mut soup: Vec<Vec3> = Vec::new();
+    for k in 0..600 {
+        let size = if k % 10 == 0 { 40.0 } else { 2.0 };
+        let base = rng.vec3(-30.0, 30.0);
+        soup.extend((0..3).map(|_| base + rng.vec3(-size, size)));
+    }
+    let soup_indices = (0..soup.len() as u32).collect();
+    out.push(("large and small soup", soup, soup_indices));
+    let (v, i) = mesh(accel_testkit::shapes::icosphere(3));
+    out.push(("icosphere", v, i));
+    let (v, i) = mesh(accel_testkit::shapes::triangle_soup(&mut rng, 2_000));
+    out.push(("test kit soup", v, i));
+    let scene: Vec<Vec3> = accel_testkit::triangle_scene(12_000, 22)
+        .iter()
+        .flat_map(|t| t.vertices.map(Vec3::from))
+        .collect();
+    let scene_indices = (0..scene.len() as u32).collect();
+    out.push(("bunny scene", scene, scene_indices));
+    out
+}
+
+#[test]
+fn kd_trees_against_brute_force() {
+    for (k, (name, vertices, indices)) in kd_meshes().into_iter().enumerate() {
+        let tree = KdTree::new(&vertices, &indices).unwrap();
+        tree.validate(&vertices, &indices).unwrap();
+        check_triangles(
+            &format!("KdTree, {name}"),
+            &tree,
+            &vertices,
+            &indices,
+            31 + k as u64,
+        );
+    }
+    // The sort-each-level build on the bunny (it gives the same tree; see tests/kdtree.rs),
+    // and a tree with costs that split far more, deeper and with more straddling.
+    let bunny = accel_testkit::bunny();
+    let (vertices, indices) = (bunny.positions(), bunny.flat_indices());
+    for (name, config) in [
+        (
+            "sort each level",
+            KdTreeConfig::with_build(KdBuild::SortEachLevel),
+        ),
+        (
+            "cheap traversal",
+            KdTreeConfig {
+                traversal_cost: 1.0,
+                intersection_cost: 80.0,
+                empty_bonus: 0.5,
+                ..KdTreeConfig::default()
+            },
+        ),
+    ] {
+        let tree = KdTree::with_config(&vertices, &indices, &config).unwrap();
+        tree.validate(&vertices, &indices).unwrap();
+        check_triangles(
+            &format!("KdTree {name}, bunny"),
+            &tree,
+            &vertices,
+            &indices,
+            41,
+        );
+    }
 }
