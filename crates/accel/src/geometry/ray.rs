@@ -90,6 +90,23 @@ impl Ray {
         !(self.t_min <= self.t_max)
     }
 
+    /// True when the ray can hit something: a finite origin, a finite non-zero direction whose
+    /// reciprocal is not NaN, and a non-empty range.
+    ///
+    /// [`Ray::new`] makes every invalid ray degenerate, but the fields are public, so a ray
+    /// written field by field (or one whose direction was overwritten) may carry a NaN
+    /// direction with a valid range. The slab tests treat a NaN slab distance as "this axis
+    /// does not constrain the ray" (the `0 * inf` rule), so such a ray would pass every box,
+    /// empty node slots included; every ray walk asks this first instead.
+    #[inline]
+    pub fn is_traceable(&self) -> bool {
+        !self.is_degenerate()
+            && self.origin.is_finite()
+            && self.direction.is_finite()
+            && self.direction != Vec3A::ZERO
+            && !self.inv_direction.is_nan()
+    }
+
     /// The point at parameter `t`.
     #[inline]
     pub fn at(&self, t: f32) -> Vec3A {

@@ -71,6 +71,11 @@ impl TriangleQuery for BruteForceMesh {
     }
 
     fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
+        // The oracle turns untraceable rays away as the trees do (see `Ray::is_traceable`):
+        // a ray written field by field with an infinite direction hit here and not there.
+        if !ray.is_traceable() {
+            return None;
+        }
         let mut wt = WatertightRay::new(ray);
         let mut best = None;
         for (i, tri) in self.finite() {
@@ -86,12 +91,18 @@ impl TriangleQuery for BruteForceMesh {
     }
 
     fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
+        if !ray.is_traceable() {
+            return false;
+        }
         let wt = WatertightRay::new(ray);
         self.finite()
             .any(|(_, tri)| wt.intersect(tri, backfaces).is_some())
     }
 
     fn cast_ray_all(&self, ray: &Ray, backfaces: Backfaces, out: &mut Vec<MeshHit>) {
+        if !ray.is_traceable() {
+            return;
+        }
         let wt = WatertightRay::new(ray);
         let start = out.len();
         for (i, tri) in self.finite() {

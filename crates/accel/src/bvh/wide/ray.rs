@@ -320,7 +320,13 @@ pub(super) fn visit_ray<
     // lie inside it, so a ray that misses the tree finds no child and stops there. The extra
     // scalar test slowed the rays that start inside the tree (every shadow and bounce ray)
     // for nothing (docs/experiments.md, Rays on meshes).
-    if tree.nodes.is_empty() {
+    //
+    // An untraceable ray is turned away here, not left to the slab test: with every
+    // reciprocal NaN (a NaN direction) each axis reads as unconstraining, and a degenerate
+    // ray's range `[inf, -inf]` then admits the resulting `[-inf, inf]` interval, so every
+    // slot hit, the empty ones too, whose child index is `u32::MAX` (an out-of-bounds
+    // panic in the node fetch, tests/nan_safety.rs).
+    if tree.nodes.is_empty() || !ray.is_traceable() {
         return;
     }
     let lanes = RayLanes::new(ray);
