@@ -234,3 +234,159 @@ fn nan_volumes_are_outside_frusta() {
         Containment::Intersecting
     );
 }
+
+/// Rays with a non-finite or zero direction or origin, each both as [`Ray::new`] makes it
+/// (degenerate) and written field by field with a valid range (the fields are public, so a
+/// caller can build one that `Ray::new` would have emptied).
+fn untraceable_rays() -> Vec<Ray> {
+    let components = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0, 1.0];
+    let mut out = Vec::new();
+    for &x in &components {
+        for &y in &components {
+            for &z in &components {
+                let v = Vec3A::new(x, y, z);
+                if v.is_finite() && v != Vec3A::ZERO {
+                    continue;
+                }
+                for origin in [Vec3A::new(0.1, 0.2, -5.0), v] {
+                    out.push(Ray::new(origin, v));
+                    out.push(Ray {
+                        origin,
+                        direction: v,
+                        inv_direction: v.recip(),
+                        t_min: 0.0,
+                        t_max: f32::INFINITY,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The known bug: a ray whose direction has NaN components made `MeshBvh::cast_ray` index out
+/// of bounds in the wide walk (an all-NaN reciprocal let every slot pass the slab test, empty
+/// ones included). Every ray entry point of every structure must treat such rays as misses.
+#[test]
+fn untraceable_rays_miss_in_every_structure() {
+    use accel::bvh::SphereBvh;
+    use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
+    use accel::dynamic::{LayeredIndex, StaticDynamicPair};
+    use accel::mesh::{Instance, InstancedScene, MeshBvh};
+    use accel::query::{AnyIndex, BruteForceIndex, DynamicIndex, IndexKind};
+    use accel::{BuildConfig, Bvh, DynamicBvh, SpatialQuery};
+    use std::sync::Arc;
+
+    fn check<T: SpatialQuery>(name: &str, tree: &T, boxes: &[Aabb], rays: &[Ray]) {
+        for ray in rays {
+            let mut visited = 0;
+            let hit = tree.cast_ray(ray, |i, r| {
+                visited += 1;
+                r.intersect_aabb(&boxes[i as usize])
+            });
+            let any = tree.cast_ray_any(ray, |_, _| {
+                visited += 1;
+                true
+            });
+            let mut all = Vec::new();
+            tree.cast_ray_all(
+                ray,
+                |i, r| {
+                    visited += 1;
+                    r.intersect_aabb(&boxes[i as usize])
+                },
+                &mut all,
+            );
+            assert!(
+                hit.is_none() && any.is_none() && all.is_empty() && visited == 0,
+                "{name}: {ray:?} reached {visited} candidates"
+            );
+        }
+    }
+
+    let rays = untraceable_rays();
+    let boxes = accel_testkit::uniform_boxes(&mut accel_testkit::Rng::new(9), 300, 20.0, 0.1..2.0);
+    let bvh = Bvh::build(&boxes, &BuildConfig::default());
+    check("Bvh", &bvh, &boxes, &rays);
+    check("Bvh4", &Bvh4::from_bvh(&bvh), &boxes, &rays);
+    check("Bvh8", &Bvh8::from_bvh(&bvh), &boxes, &rays);
+    check("Bvh16", &Bvh16::from_bvh(&bvh), &boxes, &rays);
+    check("QBvh8", &QBvh8::from_bvh(&bvh), &boxes, &rays);
+    check(
+        "SphereBvh",
+        &SphereBvh::from_bvh(&bvh, &boxes),
+        &boxes,
+        &rays,
+    );
+    check(
+        "BruteForceIndex",
+        &BruteForceIndex::from_boxes(&boxes),
+        &boxes,
+        &rays,
+    );
+    let mut dynamic = DynamicBvh::new();
+    for (i, b) in boxes.iter().enumerate() {
+        dynamic.insert(i as u32, *b).unwrap();
+    }
+    check("DynamicBvh", &dynamic, &boxes, &rays);
+    let half = boxes.len() / 2;
+    let mut pair = StaticDynamicPair::new(
+        Bvh::build(&boxes[..half], &BuildConfig::default()),
+        DynamicBvh::new(),
+    );
+    for (i, b) in boxes.iter().enumerate().skip(half) {
+        pair.dynamic_mut().insert(i as u32, *b).unwrap();
+    }
+    check("StaticDynamicPair", &pair, &boxes, &rays);
+    pair.snapshot_dynamic_for_rays(&BuildConfig::default());
+    check("StaticDynamicPair, snapshot", &pair, &boxes, &rays);
+    for kind in IndexKind::ALL {
+        let mut index = AnyIndex::new(kind);
+        for (i, b) in boxes.iter().enumerate() {
+            index.insert(i as u32, *b).unwrap();
+        }
+        index.maintain(std::time::Duration::ZERO);
+        check(&format!("{kind:?}"), &index, &boxes, &rays);
+        let mut layers = LayeredIndex::new(
+            Bvh::build(&boxes[..half], &BuildConfig::default()),
+            AnyIndex::new(kind),
+        );
+        for (i, b) in boxes.iter().enumerate().skip(half) {
+            layers.dynamic_mut().insert(i as u32, *b).unwrap();
+        }
+        layers.dynamic_mut().maintain(std::time::Duration::ZERO);
+        check(
+            &format!("LayeredIndex over {kind:?}"),
+            &layers,
+            &boxes,
+            &rays,
+        );
+    }
+
+    let sphere = accel_testkit::shapes::icosphere(3);
+    let mesh = Arc::new(MeshBvh::new(&sphere.positions(), &sphere.flat_indices()).unwrap());
+    let scene = InstancedScene::new(vec![
+        Instance {
+            mesh: mesh.clone(),
+            world_from_local: Affine3A::IDENTITY,
+        },
+        Instance {
+            mesh: mesh.clone(),
+            world_from_local: Affine3A::from_translation(Vec3::new(0.0, 0.0, 4.0)),
+        },
+    ]);
+    for ray in &rays {
+        for backfaces in [Backfaces::Include, Backfaces::Cull] {
+            let mut all = Vec::new();
+            assert!(mesh.cast_ray(ray, backfaces).is_none(), "{ray:?}");
+            assert!(!mesh.cast_ray_any(ray, backfaces), "{ray:?}");
+            mesh.cast_ray_all(ray, backfaces, &mut all);
+            assert!(all.is_empty(), "{ray:?}");
+            let mut all = Vec::new();
+            assert!(scene.cast_ray(ray, backfaces).is_none(), "{ray:?}");
+            assert!(!scene.cast_ray_any(ray, backfaces), "{ray:?}");
+            scene.cast_ray_all(ray, backfaces, &mut all);
+            assert!(all.is_empty(), "{ray:?}");
+        }
+    }
+}

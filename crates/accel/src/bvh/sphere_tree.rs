@@ -13,6 +13,10 @@ use glam::Vec3A;
 /// (one dot product per plane), but enclose boxes loosely; `BENCHMARKS.md` compares the two on
 /// rays and culling.
 ///
+/// A primitive whose box has an infinite bound (or one so large that its circumscribed
+/// radius overflows) is held, as the box tree holds it, under spheres of infinite radius:
+/// queries still offer it to the exact test, and its finite siblings stay reachable.
+///
 /// ```
 /// use accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
 /// use accel::bvh::SphereBvh;
@@ -42,6 +46,9 @@ impl SphereBvh {
         for i in (0..n).rev() {
             let node = bvh.nodes[i];
             let around_box = Sphere::from_aabb(&node.aabb());
+            // `merge` passes over invalid spheres (a primitive the build left out has none),
+            // and `from_aabb` gives a box with an infinite bound an infinite radius rather
+            // than the NaN centre of `(-inf + inf) / 2`, which emptied whole subtrees.
             let merged = if node.is_leaf() {
                 let first = node.first as usize;
                 bvh.primitive_indices[first..first + node.count as usize]
@@ -53,7 +60,11 @@ impl SphereBvh {
                 Some(spheres[l].merge(&spheres[l + 1]))
             };
             spheres[i] = grown_for_rounding(match merged {
-                Some(m) if m.is_valid() && m.radius < around_box.radius => m,
+                Some(m)
+                    if m.is_valid() && (m.radius < around_box.radius || !around_box.is_valid()) =>
+                {
+                    m
+                }
                 _ => around_box,
             });
         }
@@ -86,8 +97,10 @@ fn grown_for_rounding(sphere: Sphere) -> Sphere {
     if !sphere.is_valid() {
         return sphere;
     }
-    let scale = sphere.center.abs().max_element() + sphere.radius;
-    Sphere::new(sphere.center, sphere.radius + 8.0 * f32::EPSILON * scale)
+    // Each term apart: their sum overflows for spheres near the end of the float range.
+    let slack = 8.0 * f32::EPSILON;
+    let grown = sphere.radius + slack * sphere.center.abs().max_element() + slack * sphere.radius;
+    Sphere::new(sphere.center, grown)
 }
 
 impl BoundingTree for SphereBvh {

@@ -122,9 +122,16 @@ pub struct DynamicBvh {
     /// so the SAH cost is O(1) to read.
     internal_area: f64,
     leaf_area: f64,
+    /// The largest value of each sum since it was last recomputed (see `set_aabb`).
+    area_peaks: (f64, f64),
     optimizer: optimize::OptimizerState,
     quality: quality::QualityState,
 }
+
+/// The fraction of its peak below which an area sum is recounted (see `set_aabb`): the
+/// rounding error a sum carries is a few ulps of its peak per edit, so below 2^-10 of the
+/// peak it could reach the validator's 1e-6 tolerance after a few thousand edits.
+const AREA_CANCELLATION: f64 = 1.0 / 1024.0;
 
 impl Default for DynamicBvh {
     fn default() -> Self {
@@ -149,6 +156,7 @@ impl Clone for DynamicBvh {
             schedule: refit_schedule::RefitSchedule::default(),
             internal_area: self.internal_area,
             leaf_area: self.leaf_area,
+            area_peaks: self.area_peaks,
             optimizer: optimize::OptimizerState::default(),
             quality: self.quality.clone_without_job(),
         }
@@ -177,6 +185,7 @@ impl DynamicBvh {
             schedule: refit_schedule::RefitSchedule::default(),
             internal_area: 0.0,
             leaf_area: 0.0,
+            area_peaks: (0.0, 0.0),
             optimizer: optimize::OptimizerState::default(),
             quality: quality::QualityState::default(),
         }
@@ -244,6 +253,7 @@ impl DynamicBvh {
         self.jumped_pending = 0;
         self.internal_area = 0.0;
         self.leaf_area = 0.0;
+        self.area_peaks = (0.0, 0.0);
     }
 
     /// Adds a leaf with the caller's `id` (what queries report) and tight `bounds`.
@@ -444,16 +454,28 @@ impl DynamicBvh {
 
     /// Writes a node's box, keeping the area sums of the quality monitor current. A node's
     /// kind (leaf or internal) must be set before its box.
+    ///
+    /// The areas are f64 ([`Aabb::half_area_f64`]): an f32 area of a finite box near the
+    /// float range's end is infinite, and once it left the sum again the sum was NaN. Such a
+    /// box still dwarfs the rest, so that its removal leaves a sum of rounding errors: when a
+    /// sum falls below [`AREA_CANCELLATION`] of its peak since the last recount, it is
+    /// recounted (O(n), once per such collapse, not per edit).
     #[inline]
     pub(crate) fn set_aabb(&mut self, i: u32, b: Aabb) {
         let n = &mut self.arena.nodes[i as usize];
-        let d = f64::from(b.half_area()) - f64::from(n.aabb.half_area());
-        if n.height == 0 {
-            self.leaf_area += d;
-        } else {
-            self.internal_area += d;
-        }
+        let d = b.half_area_f64() - n.aabb.half_area_f64();
+        let leaf = n.height == 0;
         n.aabb = b;
+        let (sum, peak) = if leaf {
+            (&mut self.leaf_area, &mut self.area_peaks.1)
+        } else {
+            (&mut self.internal_area, &mut self.area_peaks.0)
+        };
+        *sum += d;
+        *peak = peak.max(*sum);
+        if *sum < *peak * AREA_CANCELLATION {
+            self.recompute_area_sums();
+        }
     }
 
     /// Frees a node, taking its area out of the sums.

@@ -208,7 +208,7 @@ impl DynamicBvh {
             return 0.0;
         }
         let costs = self.config.sah;
-        let root_area = f64::from(self.arena.nodes[self.root as usize].aabb.half_area());
+        let root_area = self.arena.nodes[self.root as usize].aabb.half_area_f64();
         if root_area > 0.0 {
             ((internal * f64::from(costs.traversal) + leaf * f64::from(costs.intersection))
                 / root_area) as f32
@@ -403,7 +403,7 @@ impl DynamicBvh {
                     if ln.is_leaf() && ln.generation == generation {
                         ln.flags |= FLAG_PLACED;
                         placed += 1;
-                        placed_area += f64::from(ln.aabb.half_area());
+                        placed_area += ln.aabb.half_area_f64();
                         m = self.join(m, leaf);
                     }
                 }
@@ -487,12 +487,13 @@ impl DynamicBvh {
         let (mut internal, mut leaf) = (0.0f64, 0.0f64);
         for n in &self.arena.nodes {
             if n.is_leaf() {
-                leaf += f64::from(n.aabb.half_area());
+                leaf += n.aabb.half_area_f64();
             } else if n.is_internal() {
-                internal += f64::from(n.aabb.half_area());
+                internal += n.aabb.half_area_f64();
             }
         }
         self.internal_area = internal;
         self.leaf_area = leaf;
+        self.area_peaks = (internal, leaf);
     }
 }

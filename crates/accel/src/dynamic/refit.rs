@@ -151,6 +151,8 @@ impl DynamicBvh {
                 &mut order,
                 self.config.parallel_refit,
             );
+            // A recount from scratch: no rounding error left to guard against.
+            self.area_peaks.0 = self.internal_area;
         }
         let touched = order.len();
         self.refit_sorted = order;

@@ -274,7 +274,7 @@ impl SharedReplay<'_> {
             // SAFETY: `e` is in bounds (it indexes `children`) and only this entry writes it.
             unsafe { *self.boxes.add(e) = aabb };
             node(self.internal[e]).aabb = aabb;
-            area += f64::from(aabb.half_area());
+            area += aabb.half_area_f64();
         }
         area
     }

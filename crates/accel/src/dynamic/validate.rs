@@ -180,9 +180,9 @@ impl DynamicBvh {
         let (mut internal, mut leaf) = (0.0f64, 0.0f64);
         for n in nodes {
             if n.is_leaf() {
-                leaf += f64::from(n.aabb.half_area());
+                leaf += n.aabb.half_area_f64();
             } else if n.is_internal() {
-                internal += f64::from(n.aabb.half_area());
+                internal += n.aabb.half_area_f64();
             }
         }
         let close = |kept: f64, actual: f64| (kept - actual).abs() <= 1e-6 * actual.abs().max(1.0);

@@ -179,6 +179,16 @@ impl Aabb {
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 
+    /// [`Aabb::half_area`] in f64, from f64 extents: finite for every finite box, where the
+    /// f32 products overflow to infinity past extents of about `1.8e19` (and `max - min`
+    /// itself past half the float range). Sums of areas kept across edits use this: an
+    /// infinite term never leaves a sum again (`inf - inf` is NaN).
+    #[inline]
+    pub(crate) fn half_area_f64(&self) -> f64 {
+        let e = (self.max.as_dvec3() - self.min.as_dvec3()).max(glam::DVec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
     /// Volume; 0 for the empty box.
     #[inline]
     pub fn volume(&self) -> f32 {
@@ -228,10 +238,16 @@ impl Aabb {
 
     /// The world box of this local box under an affine transform.
     ///
-    /// Arvo's method (Graphics Gems, 1990): the centre goes through the transform and the half
-    /// extents through the element-wise absolute value of the linear part. This is the exact
-    /// bound of the eight transformed corners, in a third of the work of transforming them. An
-    /// empty box stays empty.
+    /// Arvo's method (Graphics Gems, 1990) in its min/max form: each output coordinate is the
+    /// translation plus, per input axis, the smaller (larger) of the matrix entry times the
+    /// box's low and high coordinate. This is the bound of the eight transformed corners, in
+    /// a fraction of the work of transforming them. An empty box stays empty.
+    ///
+    /// Why not the centre/half-extent form: its rounding is relative to the centre and the
+    /// extent, not to the corners. A box from `-100` to `1e30` has its centre and half extent
+    /// at `5e29`, and `c - h` rounded its low corner up to `0`: the world box of an instance
+    /// of such a mesh left out the mesh's ordinary triangles, and the top level never offered
+    /// rays to them.
     ///
     /// ```
     /// use accel::Aabb;
@@ -247,14 +263,17 @@ impl Aabb {
         if self.is_empty() {
             return Self::EMPTY;
         }
-        let c = m.transform_point3a(self.center());
-        let h = self.half_extents();
-        let abs = m.matrix3.abs();
-        let he = abs.x_axis * h.x + abs.y_axis * h.y + abs.z_axis * h.z;
-        Self {
-            min: c - he,
-            max: c + he,
+        let (mut min, mut max) = (m.translation, m.translation);
+        for (column, lo, hi) in [
+            (m.matrix3.x_axis, self.min.x, self.max.x),
+            (m.matrix3.y_axis, self.min.y, self.max.y),
+            (m.matrix3.z_axis, self.min.z, self.max.z),
+        ] {
+            let (a, b) = (column * lo, column * hi);
+            min += a.min(b);
+            max += a.max(b);
         }
+        Self { min, max }
     }
 
     /// The eight corners, in binary order of (x, y, z) = (min or max).

@@ -100,12 +100,36 @@ impl Frustum {
     /// Classifies a box: outside (behind a plane), inside (in front of every plane), or
     /// intersecting (undecided). Conservative: a box touching the region is never outside. An
     /// empty or NaN box is outside.
+    ///
+    /// Monotone: a box inside another is never classified further out than it (never
+    /// outside when the larger one is not, always inside when the larger one is). A tree
+    /// culls a node by its box and accepts a leaf by the leaf's box, so without this a leaf
+    /// box that passes could sit under a node box that fails.
     #[inline]
     pub fn classify_aabb(&self, aabb: &Aabb) -> Containment {
         if !aabb.is_valid() {
             return Containment::Outside;
         }
-        self.classify_center_half_extents(aabb.center(), aabb.half_extents())
+        // The corners farthest along and against each normal (the p- and n-vertices), not
+        // centre and half extents: rounded sums and products are monotone in their
+        // arguments, so the distance of a larger box's p-vertex never rounds below a smaller
+        // box's. The centre form rounds the centre and the radius apart, which far from the
+        // origin (1e7) lost boxes whose own test passed (the stress suite's frustum misses).
+        let mut inside = true;
+        for plane in &self.planes {
+            let positive = plane.normal.cmpge(Vec3A::ZERO);
+            let far_corner = Vec3A::select(positive, aabb.max, aabb.min);
+            if plane.signed_distance(far_corner) < 0.0 {
+                return Containment::Outside;
+            }
+            let near_corner = Vec3A::select(positive, aabb.min, aabb.max);
+            inside &= plane.signed_distance(near_corner) >= 0.0;
+        }
+        if inside {
+            Containment::Inside
+        } else {
+            Containment::Intersecting
+        }
     }
 
     /// [`Frustum::classify_aabb`] on a box given by centre and half extents.

@@ -12,9 +12,9 @@ use glam::{Affine3A, Vec3, Vec3A};
 /// infinite reciprocal, with the sign of the zero; [`Ray::intersect_aabb`] handles the `0 * inf`
 /// that this produces for origins on a slab plane.
 ///
-/// A ray with a NaN or infinite origin or direction, a zero direction or a NaN range is made
-/// *degenerate*: its range is emptied so that it misses everything, rather than poisoning a
-/// traversal with NaN.
+/// A ray with a NaN or infinite origin or direction, a zero direction, a direction component
+/// larger than [`Ray::MAX_DIRECTION`] or a NaN range is made *degenerate*: its range is
+/// emptied so that it misses everything, rather than poisoning a traversal with NaN.
 ///
 /// ```
 /// use accel::{Aabb, Ray};
@@ -40,6 +40,15 @@ pub struct Ray {
 }
 
 impl Ray {
+    /// The largest direction component a traceable ray may have: `2^126`.
+    ///
+    /// Why a limit: above it the reciprocal is subnormal and carries fewer significant bits
+    /// than the slab test's widening ([`crate::SLAB_WIDENING`]) allows for, so box tests could
+    /// cull a box the ray touches (the stress suite found an instance whose world box a ray
+    /// of direction `f32::MAX` missed while its mesh was hit in local space). Such a ray
+    /// covers the whole float range within `t` of about `1e-38`; it hits nothing.
+    pub const MAX_DIRECTION: f32 = (1u128 << 126) as f32;
+
     /// A ray over `[0, +inf)`.
     #[inline]
     pub fn new(origin: impl Into<Vec3A>, direction: impl Into<Vec3A>) -> Self {
@@ -58,6 +67,7 @@ impl Ray {
         let valid = origin.is_finite()
             && direction.is_finite()
             && direction != Vec3A::ZERO
+            && direction.abs().max_element() <= Self::MAX_DIRECTION
             && t_min <= t_max;
         let (t_min, t_max) = if valid {
             (t_min, t_max)
@@ -88,6 +98,25 @@ impl Ray {
     )]
     pub fn is_degenerate(&self) -> bool {
         !(self.t_min <= self.t_max)
+    }
+
+    /// True when the ray can hit something: a finite origin, a finite non-zero direction no
+    /// component of which exceeds [`Ray::MAX_DIRECTION`], whose reciprocal is not NaN, and a
+    /// non-empty range.
+    ///
+    /// [`Ray::new`] makes every invalid ray degenerate, but the fields are public, so a ray
+    /// written field by field (or one whose direction was overwritten) may carry a NaN
+    /// direction with a valid range. The slab tests treat a NaN slab distance as "this axis
+    /// does not constrain the ray" (the `0 * inf` rule), so such a ray would pass every box,
+    /// empty node slots included; every ray walk asks this first instead.
+    #[inline]
+    pub fn is_traceable(&self) -> bool {
+        !self.is_degenerate()
+            && self.origin.is_finite()
+            && self.direction.is_finite()
+            && self.direction != Vec3A::ZERO
+            && self.direction.abs().max_element() <= Self::MAX_DIRECTION
+            && !self.inv_direction.is_nan()
     }
 
     /// The point at parameter `t`.

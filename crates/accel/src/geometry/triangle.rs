@@ -153,8 +153,9 @@ impl WatertightRay {
         self.t_max
     }
 
-    /// Intersects one triangle; `None` on a miss, a hit outside `[t_min, t_max]`, a culled back
-    /// face, a degenerate (zero-area as seen by the ray) triangle, or a degenerate ray.
+    /// Intersects one triangle; `None` on a miss, a hit outside `[t_min, t_max]` or at an
+    /// infinite `t`, a culled back face, a degenerate (zero-area as seen by the ray) triangle,
+    /// or a degenerate ray.
     #[inline]
     pub fn intersect(&self, tri: &Triangle, backfaces: Backfaces) -> Option<TriangleHit> {
         self.intersect_vertices(tri.vertices[0], tri.vertices[1], tri.vertices[2], backfaces)
@@ -222,7 +223,10 @@ impl WatertightRay {
         let t_scaled = u * az + v * bz + w * cz;
         let inv_det = 1.0 / det;
         let t = t_scaled * inv_det;
-        if !(t >= self.t_min && t <= self.t_max) {
+        // A hit at an infinite distance (a subnormal direction, an origin at the end of the
+        // float range) is a miss: no box test reaches it, so the trees never offered it and
+        // the brute-force oracle alone reported it.
+        if !(t >= self.t_min && t <= self.t_max) || t.is_infinite() {
             return None;
         }
         Some(TriangleHit {

@@ -160,7 +160,10 @@ impl WatertightRay {
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
-        let in_range = t.cmpge(Vec4::splat(self.t_min)) & t.cmple(Vec4::splat(self.t_max));
+        // Finite too, as the single test asks (a hit at infinity is a miss).
+        let in_range = t.cmpge(Vec4::splat(self.t_min))
+            & t.cmple(Vec4::splat(self.t_max))
+            & t.is_finite_mask();
         let mut hits = Triangle4Hits {
             mask: inside & in_range.bitmask() & !exact_zero,
             t: t.to_array(),

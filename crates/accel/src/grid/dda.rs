@@ -41,7 +41,9 @@ impl RayWalk for UniformGrid {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        if ray.is_degenerate() || self.walk_oversize(ray, &mut visit).is_break() {
+        // Not only degenerate rays: a NaN direction would step the DDA by NaN (see
+        // `Ray::is_traceable`).
+        if !ray.is_traceable() || self.walk_oversize(ray, &mut visit).is_break() {
             return;
         }
         if self.cells.len() == 0 {

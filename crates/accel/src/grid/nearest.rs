@@ -30,7 +30,8 @@ impl UniformGrid {
             return Vec::new();
         }
         let mut best = Best {
-            heap: BinaryHeap::with_capacity(k + 1),
+            // Capped: a huge `k` overflowed `k + 1` (see `query::walks::nearest_k`).
+            heap: BinaryHeap::with_capacity(k.min(crate::query::walks::NEAREST_PREALLOCATION) + 1),
             k,
             point,
             distance_squared,

@@ -104,13 +104,13 @@ impl SpatialQuery for UniformGrid {
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        if has_nan(sphere.center) || sphere.radius.is_nan() {
+        // An invalid sphere (a non-finite centre, a NaN or negative radius) holds nothing.
+        if !sphere.is_valid() {
             return;
         }
-        // The test squares the radius, so a negative one reaches as far as its magnitude.
-        let region =
-            Aabb::from_center_half_extents(sphere.center, Vec3A::splat(sphere.radius.abs()));
-        self.for_each_owned(&region, |b| sphere.intersects_aabb(b), visit);
+        // `intersects_aabb` passes only boxes that meet `sphere.aabb()`, so its cells hold
+        // every answer.
+        self.for_each_owned(&sphere.aabb(), |b| sphere.intersects_aabb(b), visit);
     }
 
     fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)

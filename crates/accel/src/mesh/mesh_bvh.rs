@@ -3,7 +3,7 @@
 use super::MeshHit;
 use super::leaf_merge::merge_leaves;
 use super::packets::{LeafPackets, triangle_bounds};
-use super::presplit::{SplitReferences, presplit_triangles};
+use super::presplit::presplit_triangles;
 use super::sbvh::{SpatialSplits, build_spatial_splits};
 use crate::bvh::wide::Bvh16;
 use crate::{Aabb, Backfaces, BuildConfig, Bvh, Ray, SpatialQuery, SplitStrategy, WatertightRay};
@@ -99,6 +99,26 @@ pub struct MeshBvh {
     split: bool,
     triangle_count: usize,
     vertex_count: usize,
+    /// How the tree was built, for a refit that must build it again.
+    recipe: Recipe,
+    /// The triangles with a non-finite corner at the build: the tree has no place for them.
+    left_out: Vec<u32>,
+    /// The index list, kept only when `left_out` is not empty (a refit that makes one of
+    /// those triangles finite builds again from it).
+    indices: Vec<u32>,
+}
+
+/// How a mesh's tree was built: the settings of [`MeshBvh::with_splits`] or of
+/// [`MeshBvh::with_spatial_splits`].
+#[derive(Clone, Copy, Debug)]
+enum Recipe {
+    /// Pre-split triangles (none for a budget of 0).
+    Splits { config: BuildConfig, budget: f32 },
+    /// Spatial splits.
+    Spatial {
+        config: BuildConfig,
+        splits: SpatialSplits,
+    },
 }
 
 /// The wide layout the mesh tree uses.
@@ -183,16 +203,11 @@ impl MeshBvh {
         config: &BuildConfig,
         split_budget: f32,
     ) -> Result<Self, MeshError> {
-        Self::build_with(vertices, indices, config, |boxes, corners| {
-            let references = (split_budget > 0.0)
-                .then(|| presplit_triangles(boxes, corners, split_budget))
-                .filter(|refs| refs.boxes.len() > boxes.len());
-            let bvh = Bvh::build(
-                references.as_ref().map_or(boxes, |refs| &refs.boxes),
-                config,
-            );
-            (bvh, references)
-        })
+        let recipe = Recipe::Splits {
+            config: *config,
+            budget: split_budget,
+        };
+        Self::build_with(vertices, indices, recipe)
     }
 
     /// Builds a spatial-split BVH (SBVH; Stich et al. 2009): a binned SAH build that, where
@@ -236,21 +251,16 @@ impl MeshBvh {
         config: &BuildConfig,
         splits: &SpatialSplits,
     ) -> Result<Self, MeshError> {
-        Self::build_with(vertices, indices, config, |boxes, corners| {
-            let (bvh, references) = build_spatial_splits(boxes, corners, config, splits);
-            (bvh, Some(references))
-        })
+        let recipe = Recipe::Spatial {
+            config: *config,
+            splits: *splits,
+        };
+        Self::build_with(vertices, indices, recipe)
     }
 
-    /// Checks the triangle list, bounds its triangles, and finishes the tree `build` makes
-    /// over their boxes (`build` gets the boxes and each triangle's corners, and returns the
-    /// binary tree and, where it built over pieces, the references its leaves index).
-    fn build_with(
-        vertices: &[Vec3],
-        indices: &[u32],
-        config: &BuildConfig,
-        build: impl FnOnce(&[Aabb], &dyn Fn(u32) -> [Vec3A; 3]) -> (Bvh, Option<SplitReferences>),
-    ) -> Result<Self, MeshError> {
+    /// Checks the triangle list, bounds its triangles, builds the binary tree the recipe
+    /// asks for over their boxes (or over pieces of them), and finishes it.
+    fn build_with(vertices: &[Vec3], indices: &[u32], recipe: Recipe) -> Result<Self, MeshError> {
         if !indices.len().is_multiple_of(3) {
             return Err(MeshError::NotATriangleList {
                 index_count: indices.len(),
@@ -268,12 +278,30 @@ impl MeshBvh {
             .map(|t| triangle_bounds(&corners(t)))
             .collect();
         let triangle_count = boxes.iter().filter(|b| !b.is_empty()).count();
-        let (mut bvh, references) = build(&boxes, &corners);
+        let (config, (mut bvh, references)) = match recipe {
+            Recipe::Splits { config, budget } => {
+                let references = (budget > 0.0)
+                    .then(|| presplit_triangles(&boxes, corners, budget))
+                    .filter(|refs| refs.boxes.len() > boxes.len());
+                let bvh = Bvh::build(
+                    references.as_ref().map_or(&boxes, |refs| &refs.boxes),
+                    &config,
+                );
+                (config, (bvh, references))
+            }
+            Recipe::Spatial { config, splits } => {
+                let (bvh, references) = build_spatial_splits(&boxes, corners, &config, &splits);
+                (config, (bvh, Some(references)))
+            }
+        };
         merge_leaves(
             &mut bvh,
             references.as_ref().map(|refs| refs.triangles.as_slice()),
-            config,
+            &config,
         );
+        let left_out: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&t| boxes[t as usize].is_empty())
+            .collect();
         let (packets, piece_boxes) =
             LeafPackets::pack(&mut bvh, vertices, indices, references.as_ref());
         Ok(Self {
@@ -284,6 +312,13 @@ impl MeshBvh {
             piece_boxes,
             triangle_count,
             vertex_count: vertices.len(),
+            recipe,
+            indices: if left_out.is_empty() {
+                Vec::new()
+            } else {
+                indices.to_vec()
+            },
+            left_out,
         })
     }
 
@@ -315,6 +350,32 @@ impl MeshBvh {
         self.tree.memory_bytes()
             + self.packets.memory_bytes()
             + (self.refit_boxes.capacity() + self.piece_boxes.capacity()) * size_of::<Aabb>()
+            + (self.left_out.capacity() + self.indices.capacity()) * 4
+    }
+
+    /// The hits of a packet whose triangle's own box the ray touches, the others dropped.
+    ///
+    /// Why: on corners near the float range's ends (subnormal or `f32::MAX`-sized) the
+    /// watertight test's rounding can report a hit at a point outside the triangle's box,
+    /// which only some leaf boxes hold. A true hit always lies in the box, so the rule (the
+    /// brute-force oracle's too) is that a triangle whose box the ray misses is not hit. Only
+    /// hit lanes pay for the test.
+    #[inline(always)]
+    fn in_triangle_boxes(
+        &self,
+        packet: u32,
+        ray: &Ray,
+        mut hits: crate::Triangle4Hits,
+    ) -> crate::Triangle4Hits {
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if !ray.hits_aabb(&Aabb::from_points(self.packets.corners(packet, lane))) {
+                hits.mask &= !(1 << lane);
+            }
+        }
+        hits
     }
 
     pub(super) fn hit_record(&self, packet: u32, lane: usize, hit: crate::TriangleHit) -> MeshHit {
@@ -339,9 +400,8 @@ impl MeshBvh {
             #[inline(always)]
             |packet, r| {
                 wt.set_t_max(r.t_max);
-                let (lane, h) = wt
-                    .intersect4(self.packets.corners4(packet), backfaces)
-                    .closest()?;
+                let hits = wt.intersect4(self.packets.corners4(packet), backfaces);
+                let (lane, h) = self.in_triangle_boxes(packet, ray, hits).closest()?;
                 if best.is_none_or(|(_, _, b)| h.t < b.t) {
                     best = Some((packet, lane, h));
                 }
@@ -359,7 +419,10 @@ impl MeshBvh {
                 ray,
                 // Inlined into the walk (see `cast_ray`).
                 #[inline(always)]
-                |packet, _| wt.intersect4(self.packets.corners4(packet), backfaces).mask != 0,
+                |packet, _| {
+                    let hits = wt.intersect4(self.packets.corners4(packet), backfaces);
+                    self.in_triangle_boxes(packet, ray, hits).mask != 0
+                },
             )
             .is_some()
     }
@@ -371,6 +434,7 @@ impl MeshBvh {
         // An any-hit traversal that never accepts visits every leaf the ray reaches.
         self.tree.cast_ray_any(ray, |packet, _| {
             let hits = wt.intersect4(self.packets.corners4(packet), backfaces);
+            let hits = self.in_triangle_boxes(packet, ray, hits);
             let mut mask = hits.mask;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
@@ -428,7 +492,12 @@ impl MeshBvh {
             .map(|p| self.packets.packet_bounds(p))
             .collect();
         if self.piece_boxes.is_empty() {
-            return self.tree.validate(&boxes);
+            // A refit to a pose in which every triangle of a packet has a non-finite corner
+            // leaves the packet in its leaf with an empty box: it is known, and bounded by
+            // any leaf, but holds nothing to find (the plain validator would call it unknown).
+            return self
+                .tree
+                .validate_with(boxes.len(), |p| boxes.get(p as usize).copied());
         }
         for (packet, (piece, whole)) in self.piece_boxes.iter().zip(&boxes).enumerate() {
             if !whole.contains_aabb(piece) {
@@ -442,12 +511,29 @@ impl MeshBvh {
 
     /// Moves the vertices (a skinned or morphed pose) and refits the tree to them, keeping
     /// its topology: fast, but the tree degrades if the pose strays far from the build pose.
+    ///
+    /// A triangle with a non-finite corner is never hit; one that had such a corner when the
+    /// tree was built is in no leaf, so a pose that makes it finite again builds the tree
+    /// anew (with the build's own settings): a refit would leave it unreachable, and rays the
+    /// brute-force oracle sends through it missed.
     pub fn refit(&mut self, vertices: &[Vec3]) -> Result<(), MeshError> {
         if vertices.len() != self.vertex_count {
             return Err(MeshError::VertexCountChanged {
                 expected: self.vertex_count,
                 got: vertices.len(),
             });
+        }
+        let indices = &self.indices;
+        let corners =
+            |t: u32| [0, 1, 2].map(|k| Vec3A::from(vertices[indices[3 * t as usize + k] as usize]));
+        if self
+            .left_out
+            .iter()
+            .any(|&t| !triangle_bounds(&corners(t)).is_empty())
+        {
+            let indices = core::mem::take(&mut self.indices);
+            *self = Self::build_with(vertices, &indices, self.recipe)?;
+            return Ok(());
         }
         // Two passes: the packets are rewritten in memory order (one sequential stream over
         // packets and vertex indices) and their boxes kept; the tree sweep then reads boxes.

@@ -45,6 +45,12 @@ impl PlacedInstance {
         }
         let world_box = instance.mesh.bounds().transformed(&m);
         let local_from_world = m.inverse();
+        // A finite transform can still overflow the world box (a scale near f32::MAX) or
+        // have an inverse that does: such an instance could never be found through the top
+        // level, so it is rejected and reported, not silently unreachable.
+        if !(world_box.is_valid() && world_box.is_finite() && local_from_world.is_finite()) {
+            return None;
+        }
         Some((
             Self {
                 normal_to_world: local_from_world.matrix3.transpose(),

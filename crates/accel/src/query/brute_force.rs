@@ -206,6 +206,10 @@ impl RayWalk for BruteForceIndex {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
+        // The oracle turns untraceable rays away as the trees do (see `Ray::is_traceable`).
+        if !ray.is_traceable() {
+            return;
+        }
         for (id, b) in self.entries() {
             if ray.intersect_aabb(b).is_some() && visit(id, ray).is_break() {
                 return;

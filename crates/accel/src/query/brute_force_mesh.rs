@@ -28,6 +28,16 @@ impl BruteForceMesh {
             .filter_map(|(i, t)| t.as_ref().map(|t| (i as u32, t)))
     }
 
+    /// The finite triangles whose box the ray touches: the only ones a ray can truly hit.
+    ///
+    /// Why the box first: the trees test a triangle only inside a box that holds it, while
+    /// on corners near the float range's ends (subnormal or `f32::MAX`-sized) the watertight
+    /// test's rounding can report a hit at a point outside the triangle's own box; the
+    /// oracle alone then found it.
+    fn reachable<'a>(&'a self, ray: &'a Ray) -> impl Iterator<Item = (u32, &'a Triangle)> + 'a {
+        self.finite().filter(|(_, t)| ray.hits_aabb(&t.aabb()))
+    }
+
     /// The hit record of triangle `triangle` (corners `tri`), as every mesh query gives it.
     pub(crate) fn record(triangle: u32, tri: &Triangle, hit: crate::TriangleHit) -> MeshHit {
         let [a, b, c] = tri.vertices;
@@ -52,9 +62,14 @@ impl TriangleQuery for BruteForceMesh {
     }
 
     fn cast_ray(&self, ray: &Ray, backfaces: Backfaces) -> Option<MeshHit> {
+        // The oracle turns untraceable rays away as the trees do (see `Ray::is_traceable`):
+        // a ray written field by field with an infinite direction hit here and not there.
+        if !ray.is_traceable() {
+            return None;
+        }
         let mut wt = WatertightRay::new(ray);
         let mut best = None;
-        for (i, tri) in self.finite() {
+        for (i, tri) in self.reachable(ray) {
             // A tie keeps the lower index, as the trees' walks do for hits in one leaf.
             if let Some(hit) = wt.intersect(tri, backfaces)
                 && best.is_none_or(|b: MeshHit| hit.t < b.t)
@@ -67,15 +82,21 @@ impl TriangleQuery for BruteForceMesh {
     }
 
     fn cast_ray_any(&self, ray: &Ray, backfaces: Backfaces) -> bool {
+        if !ray.is_traceable() {
+            return false;
+        }
         let wt = WatertightRay::new(ray);
-        self.finite()
+        self.reachable(ray)
             .any(|(_, tri)| wt.intersect(tri, backfaces).is_some())
     }
 
     fn cast_ray_all(&self, ray: &Ray, backfaces: Backfaces, out: &mut Vec<MeshHit>) {
+        if !ray.is_traceable() {
+            return;
+        }
         let wt = WatertightRay::new(ray);
         let start = out.len();
-        for (i, tri) in self.finite() {
+        for (i, tri) in self.reachable(ray) {
             if let Some(hit) = wt.intersect(tri, backfaces) {
                 out.push(Self::record(i, tri, hit));
             }

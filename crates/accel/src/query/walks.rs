@@ -43,6 +43,11 @@ where
     T: BoundingTree + ?Sized,
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
+    // A NaN direction passes every slab test (NaN distances do not constrain), so it would
+    // visit the whole tree: turn it away as a miss (see `Ray::is_traceable`).
+    if !ray.is_traceable() {
+        return;
+    }
     let Some(root) = tree.root() else { return };
     let Some(root_t) = tree.node_bounds(root).ray_entry(ray) else {
         return;
@@ -201,13 +206,20 @@ where
     }
 }
 
+/// At most this many k-nearest candidates are allocated for before the walk starts.
+pub(crate) const NEAREST_PREALLOCATION: usize = 1024;
+
 /// k nearest; see [`super::SpatialQuery::nearest_k`].
 pub fn nearest_k<T, F>(tree: &T, point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
 where
     T: BoundingTree + ?Sized,
     F: FnMut(u32) -> f32,
 {
-    let mut best: BinaryHeap<Candidate> = BinaryHeap::with_capacity(k + 1);
+    // Capped: `k` is the caller's, and a huge one (`usize::MAX` for "all of them") made
+    // `k + 1` overflow, or asked for the memory of k entries up front (the stress suite's
+    // non-finite cases). The heap grows past the cap as it needs to.
+    let mut best: BinaryHeap<Candidate> =
+        BinaryHeap::with_capacity(k.min(NEAREST_PREALLOCATION) + 1);
     let Some(root) = tree.root() else {
         return Vec::new();
     };

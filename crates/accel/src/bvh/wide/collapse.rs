@@ -154,9 +154,10 @@ fn split_oversized_leaves(bvh: &Bvh, max: u32) -> Cow<'_, Bvh> {
 
 pub(super) fn validate<const N: usize, L: WideLayout<N>>(
     tree: &WideBvh<N, L>,
-    bounds: &[Aabb],
+    primitive_count: usize,
+    bounds: impl Fn(u32) -> Option<Aabb>,
 ) -> Result<(), ValidationError> {
-    let mut seen_prim = vec![false; bounds.len()];
+    let mut seen_prim = vec![false; primitive_count];
     let mut seen_node = vec![false; tree.nodes.len()];
     if !tree.nodes.is_empty() {
         let mut stack = vec![(0u32, tree.bounds)];
@@ -189,12 +190,11 @@ pub(super) fn validate<const N: usize, L: WideLayout<N>>(
                     return Err(ValidationError::InlinePrimitiveMismatch { node, primitive: p });
                 }
                 for &p in prims {
-                    let pb = bounds
-                        .get(p as usize)
-                        .copied()
-                        .filter(Aabb::is_valid)
+                    let pb = bounds(p).ok_or(ValidationError::UnknownPrimitive(p))?;
+                    let seen = seen_prim
+                        .get_mut(p as usize)
                         .ok_or(ValidationError::UnknownPrimitive(p))?;
-                    if std::mem::replace(&mut seen_prim[p as usize], true) {
+                    if std::mem::replace(seen, true) {
                         return Err(ValidationError::DuplicatePrimitive(p));
                     }
                     if !b.contains_aabb(&pb) {
@@ -208,7 +208,7 @@ pub(super) fn validate<const N: usize, L: WideLayout<N>>(
         }
     }
     for (p, seen) in seen_prim.iter().enumerate() {
-        if !seen && bounds[p].is_valid() {
+        if !seen && bounds(p as u32).is_some_and(|b| b.is_valid()) {
             return Err(ValidationError::MissingPrimitive(p as u32));
         }
     }

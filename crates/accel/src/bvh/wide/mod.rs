@@ -147,7 +147,20 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// Checks that every slot's box contains what is below it and that every valid primitive
     /// of `bounds` is reachable exactly once.
     pub fn validate(&self, bounds: &[Aabb]) -> Result<(), super::validate::ValidationError> {
-        collapse::validate(self, bounds)
+        collapse::validate(self, bounds.len(), |p| {
+            bounds.get(p as usize).copied().filter(Aabb::is_valid)
+        })
+    }
+
+    /// [`WideBvh::validate`] with each primitive's box given by `bounds(id)`, `None` for ids
+    /// that should not be in the tree (an empty box is a known primitive that no leaf needs
+    /// to grow for: one a refit found no finite bounds for).
+    pub(crate) fn validate_with(
+        &self,
+        primitive_count: usize,
+        bounds: impl Fn(u32) -> Option<Aabb>,
+    ) -> Result<(), super::validate::ValidationError> {
+        collapse::validate(self, primitive_count, bounds)
     }
 }
 

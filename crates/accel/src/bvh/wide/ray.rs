@@ -321,12 +321,12 @@ pub(super) fn visit_ray<
     // scalar test slowed the rays that start inside the tree (every shadow and bounce ray)
     // for nothing (docs/experiments.md, Rays on meshes).
     //
-    // A degenerate ray stops here: with a NaN origin or direction every slab distance is
-    // NaN, which the lane tests ignore (the rule that keeps an axis-parallel ray on a slab
-    // plane inside it), so every slot, unused ones included, passes against the empty range
-    // `[inf, -inf]`, and the walk would follow an unused slot's `EMPTY_SLOT` child out of
-    // the node array. One compare per ray, not per node.
-    if tree.nodes.is_empty() || ray.is_degenerate() {
+    // An untraceable ray is turned away here, not left to the slab test: with every
+    // reciprocal NaN (a NaN direction) each axis reads as unconstraining, and a degenerate
+    // ray's range `[inf, -inf]` then admits the resulting `[-inf, inf]` interval, so every
+    // slot hit, the empty ones too, whose child index is `u32::MAX` (an out-of-bounds
+    // panic in the node fetch, tests/nan_safety.rs).
+    if tree.nodes.is_empty() || !ray.is_traceable() {
         return;
     }
     let lanes = RayLanes::new(ray);

@@ -1,0 +1,110 @@
+//! `accel-bench`: one tool for the accel crate's measurements.
+//!
+//! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]`
+//!
+//! Suites: `stress` (correctness under numerically hostile input; exits non-zero on any
+//! miss, leak, panic or NaN), `build` (build time against tree quality), `update` (upkeep
+//! time under motion against quality loss), `rays` (ray time against error, with peers), and
+//! `all`. Each prints a table, and optionally writes JSON and draws SVG plots of time against
+//! error or quality with the Pareto front marked. `--quick` shrinks every suite so that
+//! `all --quick` is a fast check (CI runs it for the stress counts).
+
+mod json;
+mod pareto;
+mod plot;
+mod progress;
+mod suites;
+mod table;
+mod timing;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// What the command line asked for.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The suites to run, in order.
+    pub suites: Vec<String>,
+    /// Small sizes, for a check in about a minute.
+    pub quick: bool,
+    /// Where to write the JSON report of every suite run.
+    pub json: Option<PathBuf>,
+    /// Where to draw the SVG plots.
+    pub plots: Option<PathBuf>,
+}
+
+const SUITES: [&str; 4] = ["stress", "build", "update", "rays"];
+
+const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR]\n\
+    SUITE: stress | build | update | rays | all";
+
+fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
+    let mut opts = Options {
+        suites: Vec::new(),
+        quick: false,
+        json: None,
+        plots: None,
+    };
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--quick" => opts.quick = true,
+            "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
+            "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),
+            "-h" | "--help" => return Err(String::new()),
+            "all" => opts.suites.extend(SUITES.iter().map(|s| s.to_string())),
+            s if SUITES.contains(&s) => opts.suites.push(s.to_string()),
+            other => return Err(format!("unknown argument {other:?}")),
+        }
+    }
+    if opts.suites.is_empty() {
+        return Err("no suite given".into());
+    }
+    Ok(opts)
+}
+
+fn main() -> ExitCode {
+    let opts = match parse(std::env::args().skip(1)) {
+        Ok(o) => o,
+        Err(e) => {
+            if !e.is_empty() {
+                eprintln!("{e}");
+            }
+            eprintln!("{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let started = std::time::Instant::now();
+    let mut reports = Vec::new();
+    for suite in &opts.suites {
+        let t = std::time::Instant::now();
+        let mut report = suites::run(suite, &opts);
+        report.seconds = t.elapsed().as_secs_f64();
+        pareto::mark(&mut report.points);
+        table::print_report(&report);
+        if let Some(dir) = &opts.plots
+            && let Err(e) = plot::draw_report(&report, dir)
+        {
+            eprintln!("plots of {suite}: {e}");
+            return ExitCode::from(2);
+        }
+        reports.push(report);
+    }
+    if let Some(path) = &opts.json
+        && let Err(e) = json::write(path, &reports)
+    {
+        eprintln!("{}: {e}", path.display());
+        return ExitCode::from(2);
+    }
+    let failures: u64 = reports.iter().map(json::Report::failures).sum();
+    println!(
+        "\n{} suite(s) in {:.1} s; stress failures: {failures}",
+        reports.len(),
+        started.elapsed().as_secs_f64()
+    );
+    if failures > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}

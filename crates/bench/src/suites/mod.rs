@@ -1,0 +1,75 @@
+//! The suites, one file each, and what they share: the point constructor, and the peers'
+//! adapters, included from `crates/accel/benches/common` (one copy, shared with the benches).
+
+pub mod build;
+pub mod rays;
+pub mod stress;
+pub mod update;
+
+// The peer adapters of the criterion benches, compiled here too rather than copied.
+#[path = "../../../accel/benches/common/mod.rs"]
+pub mod common;
+
+use crate::Options;
+use crate::json::{Point, Report};
+use accel::Ray;
+use accel_testkit::Rng;
+use glam::Vec3A;
+
+/// Runs the suite named `name`.
+pub fn run(name: &str, opts: &Options) -> Report {
+    match name {
+        "stress" => stress::run(opts.quick),
+        "build" => build::run(opts.quick),
+        "update" => update::run(opts.quick),
+        "rays" => rays::run(opts.quick),
+        other => unreachable!("the argument parser lets only known suites through: {other}"),
+    }
+}
+
+/// One point of a plot.
+pub fn point(
+    scene: &str,
+    method: &str,
+    setting: &str,
+    time: (&str, f64),
+    quality: (&str, Option<f64>),
+) -> Point {
+    Point {
+        scene: scene.to_string(),
+        method: method.to_string(),
+        setting: setting.to_string(),
+        time_name: time.0.to_string(),
+        time: time.1,
+        quality_name: quality.0.to_string(),
+        quality: quality.1,
+        pareto: false,
+    }
+}
+
+/// Incoherent rays: origins uniform in the cube of half side `extent`, directions uniform on
+/// the sphere.
+pub fn incoherent_rays(n: usize, extent: f32, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| Ray::new(rng.vec3a(-extent, extent), rng.unit_vector()))
+        .collect()
+}
+
+/// A pinhole camera's pixel grid in scanline order, from `eye` towards the origin: coherent
+/// primary rays.
+pub fn camera_rays(n: usize, eye: Vec3A) -> Vec<Ray> {
+    let side = (n as f64).sqrt().ceil() as usize;
+    let forward = (-eye).normalize();
+    let right = forward.cross(Vec3A::Y).normalize();
+    let up = right.cross(forward);
+    let half = 30f32.to_radians().tan();
+    (0..n)
+        .map(|i| {
+            let (x, y) = ((i % side) as f32, (i / side) as f32);
+            let sx = (2.0 * (x + 0.5) / side as f32 - 1.0) * half;
+            let sy = (1.0 - 2.0 * (y + 0.5) / side as f32) * half;
+            Ray::new(eye, (forward + right * sx + up * sy).normalize())
+        })
+        .collect()
+}
