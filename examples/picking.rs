@@ -7,17 +7,18 @@
 //! press and release at its screen position), saves a frame and exits, failing unless that
 //! cube was selected.
 
-use bevy::camera::NormalizedRenderTarget;
 use bevy::picking::backend::HitData;
-use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
+use bevy::picking::pointer::PointerInput;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use bevy::window::{PrimaryWindow, WindowRef};
+use bevy::window::PrimaryWindow;
 use bevy_accel::picking::{AccelHitExtra, AccelPickingPlugin};
 use bevy_accel::prelude::*;
 
 #[path = "support/obj_loader.rs"]
 mod obj_loader;
+#[path = "support/screenshot.rs"]
+mod screenshot;
 
 #[derive(Resource)]
 struct Palette {
@@ -151,25 +152,7 @@ fn synthetic_click_and_screenshot(
     *frame += 1;
     let (camera, camera_tf) = *camera;
     let Some(target) = target else { return };
-    let (Ok(position), Some(window_ref)) = (
-        camera.world_to_viewport(camera_tf, target.1),
-        WindowRef::Primary.normalize(Some(*window)),
-    ) else {
-        return;
-    };
-    let location = Location {
-        target: NormalizedRenderTarget::Window(window_ref),
-        position,
-    };
-    let action = match *frame {
-        20 => Some(PointerAction::Move { delta: Vec2::ZERO }),
-        22 => Some(PointerAction::Press(PointerButton::Primary)),
-        24 => Some(PointerAction::Release(PointerButton::Primary)),
-        _ => None,
-    };
-    if let Some(action) = action {
-        input.write(PointerInput::new(PointerId::Mouse, location, action));
-    }
+    screenshot::synthetic_click(*frame, *window, (camera, camera_tf), target.1, &mut input);
     if *frame == 34 {
         commands
             .spawn(Screenshot::primary_window())

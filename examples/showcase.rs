@@ -19,12 +19,11 @@
 //! can be compared). With `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the
 //! trees', for comparison; `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
-use bevy::camera::NormalizedRenderTarget;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::picking::hover::HoverMap;
-use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
+use bevy::picking::pointer::{PointerId, PointerInput};
 use bevy::prelude::*;
-use bevy::window::{PrimaryWindow, WindowRef};
+use bevy::window::PrimaryWindow;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 use bevy_accel::panel::AccelPanelPlugin;
@@ -302,27 +301,8 @@ fn synthetic_click(
         return;
     }
     *frame += 1;
-    let (camera, camera_tf) = *camera;
     let Some(target) = target else { return };
-    let (Ok(position), Some(window_ref)) = (
-        camera.world_to_viewport(camera_tf, target.1),
-        WindowRef::Primary.normalize(Some(*window)),
-    ) else {
-        return;
-    };
-    let location = Location {
-        target: NormalizedRenderTarget::Window(window_ref),
-        position,
-    };
-    let action = match *frame {
-        10 => Some(PointerAction::Move { delta: Vec2::ZERO }),
-        12 => Some(PointerAction::Press(PointerButton::Primary)),
-        14 => Some(PointerAction::Release(PointerButton::Primary)),
-        _ => None,
-    };
-    if let Some(action) = action {
-        input.write(PointerInput::new(PointerId::Mouse, location, action));
-    }
+    screenshot::synthetic_click(*frame, *window, *camera, target.1, &mut input);
 }
 
 /// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the clicked cube is

@@ -38,3 +38,35 @@ pub fn exit_with(exit: &mut MessageWriter<AppExit>, passed: bool, what: String) 
         exit.write(AppExit::error());
     }
 }
+
+/// Screenshot mode's pointer: moves the mouse over `target` (a world point seen by
+/// `camera`) at frame 10, presses its primary button at 12 and releases it at 14, as
+/// bevy_picking's input from a window would. `frame` counts from the first call.
+pub fn synthetic_click(
+    frame: u32,
+    window: Entity,
+    (camera, camera_tf): (&Camera, &GlobalTransform),
+    target: Vec3,
+    input: &mut MessageWriter<bevy::picking::pointer::PointerInput>,
+) {
+    use bevy::camera::NormalizedRenderTarget;
+    use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
+    use bevy::window::WindowRef;
+    let (Ok(position), Some(window_ref)) = (
+        camera.world_to_viewport(camera_tf, target),
+        WindowRef::Primary.normalize(Some(window)),
+    ) else {
+        return;
+    };
+    let location = Location {
+        target: NormalizedRenderTarget::Window(window_ref),
+        position,
+    };
+    let action = match frame {
+        10 => PointerAction::Move { delta: Vec2::ZERO },
+        12 => PointerAction::Press(PointerButton::Primary),
+        14 => PointerAction::Release(PointerButton::Primary),
+        _ => return,
+    };
+    input.write(PointerInput::new(PointerId::Mouse, location, action));
+}

@@ -98,6 +98,11 @@ fn draw(
                 .configure_mesh()
                 .x_desc(time_name)
                 .y_desc(format!("{quality_name} (lower is better)"))
+                // Log axes put labels at values like 0.30000000000000004: three significant
+                // digits are all a reader wants, and fewer labels keep them apart.
+                .x_labels(8)
+                .x_label_formatter(&|v| format!("{:.3}", *v as f64))
+                .y_label_formatter(&|v| format!("{:.3}", *v as f64))
                 .draw()?;
             chart.draw_series(LineSeries::new(front.iter().copied(), RED.stroke_width(2)))?;
             chart.draw_series(points.iter().zip(&xy).map(|(p, &(x, y))| {
