@@ -3,10 +3,11 @@
 //! and a stored reference image.
 
 use accel::preview::{
-    BruteForcePreviewScene, InstancedPreviewScene, MeshSurface, PreviewCamera, PreviewImage,
-    PreviewInstance, PreviewLight, PreviewMaterial, PreviewMode, PreviewScene, PreviewTracer,
-    Texture, TextureFilter,
+    BruteForcePreviewScene, IndexedPreviewScene, InstancedPreviewScene, MeshSurface, PreviewCamera,
+    PreviewImage, PreviewInstance, PreviewLight, PreviewMaterial, PreviewMode, PreviewScene,
+    PreviewTracer, Texture, TextureFilter,
 };
+use accel::query::{AnyIndex, IndexKind};
 use accel_testkit::bunny;
 use accel_testkit::shapes::cube;
 use glam::{Affine3A, Mat4, Quat, Vec2, Vec3, Vec3A};
@@ -251,6 +252,43 @@ fn shaded_and_path_traced_images_equal_brute_force() {
                 "{mode:?}: {} distinct values",
                 distinct.len()
             );
+        }
+    }
+}
+
+/// The scene over each dynamic index as its top level traces the brute-force image, pixel
+/// for pixel (shaded: shadow rays through the index too), and finds the same closest hits.
+#[test]
+fn every_index_choice_traces_the_brute_force_image() {
+    let mut instances = known_scene();
+    // One that cannot be inverted: every scene leaves it out.
+    instances.push(PreviewInstance {
+        world_from_local: Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+        ..instances[1].clone()
+    });
+    let brute = BruteForcePreviewScene::new(&instances);
+    let size = (64, 36);
+    let ids = tracer(PreviewMode::ObjectIds, size);
+    let shaded = tracer(PreviewMode::Shaded, size);
+    let want_ids = trace(&ids, &brute, size, 0);
+    let want_shaded = trace(&shaded, &brute, size, 1);
+    for kind in IndexKind::ALL {
+        let scene = IndexedPreviewScene::new(AnyIndex::new(kind), &instances).unwrap();
+        assert_eq!(trace(&ids, &scene, size, 0), want_ids, "{kind:?}");
+        assert_eq!(trace(&shaded, &scene, size, 1), want_shaded, "{kind:?}");
+        for y in (0..size.1).step_by(3) {
+            for x in (0..size.0).step_by(3) {
+                let ray = ids
+                    .camera
+                    .pixel_ray(Vec2::new(x as f32, y as f32), size.0, size.1);
+                let got = scene.closest(&ray);
+                assert_eq!(
+                    got.map(|h| h.t),
+                    brute.closest(&ray).map(|h| h.t),
+                    "{kind:?}"
+                );
+                assert_eq!(scene.closest_counted(&ray).hit, got, "{kind:?}");
+            }
         }
     }
 }

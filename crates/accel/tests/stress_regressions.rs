@@ -343,3 +343,36 @@ fn rays_with_directions_past_the_limit_are_not_traceable() {
     assert!(!field_by_field.is_traceable());
     assert!(Ray::new(Vec3A::ZERO, Vec3A::splat(Ray::MAX_DIRECTION)).is_traceable());
 }
+
+/// An instance placed at `z = -f32::MAX` under a general matrix: `Aabb::transformed` rounded
+/// its world box to nearest, a ray from `-f32::MAX` met the triangle an ulp outside that box,
+/// and the two-level scene missed what the instance's own mesh hit. World boxes are grown by
+/// a few ulps of their magnitude now.
+#[test]
+fn instance_boxes_far_from_the_origin_hold_their_triangles() {
+    let sphere = accel_testkit::shapes::icosphere(2).normalized(100.0);
+    let mesh = Arc::new(MeshBvh::new(&sphere.positions(), &sphere.flat_indices()).unwrap());
+    let m = Affine3A::from_cols(
+        Vec3A::new(112.02707, -72.094284, -9.178436),
+        Vec3A::new(-37.17543, 66.15706, 31.463516),
+        Vec3A::new(-36.03311, 91.18683, 29.286179),
+        Vec3A::new(75.31378, -65.03221, -3.4028235e38),
+    );
+    let ray = Ray::with_range(
+        Vec3A::new(-99.569466, -1e30, -3.4028235e38),
+        Vec3A::new(57.204514, -117.33119, 64.42317),
+        -52.612366,
+        f32::INFINITY,
+    );
+    let scene = InstancedScene::new(vec![Instance {
+        mesh: mesh.clone(),
+        world_from_local: m,
+    }]);
+    let own = if scene.rejected_instances().is_empty() {
+        mesh.cast_ray(&ray.transformed(&m.inverse()), Backfaces::Include)
+    } else {
+        None
+    };
+    let got = scene.cast_ray(&ray, Backfaces::Include);
+    assert_eq!(got.map(|h| h.hit.t), own.map(|h| h.t));
+}

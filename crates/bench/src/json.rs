@@ -64,6 +64,8 @@ pub struct Report {
     pub seconds: f64,
     /// Time against error or quality.
     pub points: Vec<Point>,
+    /// Figures derived from the points (ratios, speed-ups), one line each.
+    pub notes: Vec<String>,
     /// The stress suite's counts.
     pub stress: Vec<StressRow>,
     /// Sample messages of what failed (the first few), to start debugging from.

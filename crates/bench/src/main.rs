@@ -4,7 +4,8 @@
 //!
 //! Suites: `stress` (correctness under numerically hostile input; exits non-zero on any
 //! miss, leak, panic or NaN), `build` (build time against tree quality), `update` (upkeep
-//! time under motion against quality loss), `rays` (ray time against error, with peers), and
+//! time under motion against quality loss), `rays` (ray time against error, with peers),
+//! `preview` (the ray-traced preview's image error against time, per top-level index), and
 //! `all`. Each prints a table, and optionally writes JSON and draws SVG plots of time against
 //! error or quality with the Pareto front marked. `--quick` shrinks every suite so that
 //! `all --quick` is a fast check (CI runs it for the stress counts).
@@ -33,10 +34,10 @@ pub struct Options {
     pub plots: Option<PathBuf>,
 }
 
-const SUITES: [&str; 4] = ["stress", "build", "update", "rays"];
+const SUITES: [&str; 5] = ["stress", "build", "update", "rays", "preview"];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR]\n\
-    SUITE: stress | build | update | rays | all";
+    SUITE: stress | build | update | rays | preview | all";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
     let mut opts = Options {

@@ -74,6 +74,9 @@ pub fn print_report(report: &Report) {
             &rows,
         );
     }
+    for note in &report.notes {
+        println!("  {note}");
+    }
     if !report.stress.is_empty() {
         let rows: Vec<Vec<String>> = report
             .stress

@@ -22,6 +22,6 @@ pub use counted::{CountedHit, TraversalCost};
 pub use hit::MeshHit;
 pub use mesh_bvh::{MeshBvh, MeshError};
 pub use sbvh::SpatialSplits;
-pub(crate) use scene::is_placeable;
 pub use scene::{Instance, InstanceHit, InstancedScene};
+pub(crate) use scene::{instance_world_box, is_placeable};
 pub use scene_update::SceneUpdateError;

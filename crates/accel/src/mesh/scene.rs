@@ -43,7 +43,7 @@ impl PlacedInstance {
         if !is_placeable(&m) {
             return None;
         }
-        let world_box = instance.mesh.bounds().transformed(&m);
+        let world_box = instance_world_box(&instance.mesh.bounds(), &m);
         let local_from_world = m.inverse();
         // A finite transform can still overflow the world box (a scale near f32::MAX) or
         // have an inverse that does: such an instance could never be found through the top
@@ -60,6 +60,17 @@ impl PlacedInstance {
             world_box,
         ))
     }
+}
+
+/// The world box of a mesh's `local` box under `world_from_local`, grown by a few ulps of its
+/// magnitude. `Aabb::transformed` rounds to nearest, so the exact image of a triangle can
+/// poke out of it by an ulp; a ray meeting the triangle there would miss the box and the hit
+/// (the stress suite found one, from `-f32::MAX`). Near `f32::MAX` the growth overflows, and
+/// the instance is rejected rather than found by some rays only.
+pub(crate) fn instance_world_box(local: &Aabb, world_from_local: &Affine3A) -> Aabb {
+    let world = local.transformed(world_from_local);
+    let magnitude = world.min.abs().max(world.max.abs()) + world.extent().abs();
+    world.expanded(magnitude * (4.0 * f32::EPSILON))
 }
 
 /// Whether an instance can be placed under `world_from_local`: the transform must be finite

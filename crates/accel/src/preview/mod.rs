@@ -9,6 +9,8 @@
 //!
 //! - [`PreviewScene`], [`SurfaceHit`]: the scene interface and the hit record;
 //!   [`MeshSurface`] turns a mesh hit into one.
+//! - [`IndexedPreviewScene`]: any [`DynamicIndex`](crate::query::DynamicIndex) of
+//!   instance boxes as the top level, each instance's mesh BVH below it.
 //! - [`BruteForcePreviewScene`]: every triangle tested, the oracle the tree's images match.
 //! - [`PreviewCamera`]: world rays from Bevy's inverse view-projection (reverse Z).
 //! - [`PreviewMaterial`], [`Texture`]: Lambertian albedo, sRGB textures, emission.
@@ -21,6 +23,7 @@
 mod accumulate;
 mod budget;
 mod camera;
+mod indexed;
 mod integrate;
 mod light;
 mod material;
@@ -35,6 +38,7 @@ pub use crate::mesh::{CountedHit, TraversalCost};
 pub use accumulate::{ImageTile, PreviewImage};
 pub use budget::FrameBudget;
 pub use camera::PreviewCamera;
+pub use indexed::IndexedPreviewScene;
 pub use light::{
     LightSample, PreviewLight, distance_attenuation, offset_ray_origin, spot_attenuation,
 };

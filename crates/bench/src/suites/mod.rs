@@ -2,6 +2,7 @@
 //! adapters, included from `crates/accel/benches/common` (one copy, shared with the benches).
 
 pub mod build;
+pub mod preview;
 pub mod rays;
 pub mod stress;
 pub mod update;
@@ -23,6 +24,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "build" => build::run(opts.quick),
         "update" => update::run(opts.quick),
         "rays" => rays::run(opts.quick),
+        "preview" => preview::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }

@@ -337,7 +337,9 @@ fn meshes(tally: &mut Tally, rng: &mut Rng, cases: usize) {
             }
             if got.map(|h| h.hit.t) != want {
                 tally.fail("InstancedScene", "ray", Failure::Miss, || {
-                    format!("{ray:?}: got {got:?}, per instance {want:?}")
+                    format!(
+                        "{ray:?}: got {got:?}, per instance {want:?}; transforms {transforms:?}"
+                    )
                 });
             }
         }
