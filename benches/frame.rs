@@ -16,7 +16,7 @@
 //! far plane).
 //!
 //! `cargo bench --workspace --profile dev --bench frame -- [--entities 100000,1000000]
-//! [--moving 0,10,25] [--camera strategy,ground] [--index bvh,octree,grid,quadtree,brute] [--frames 40]
+//! [--moving 0,10,25] [--camera strategy,ground] [--index bvh,octree,grid,quadtree,brute,auto] [--frames 40]
 //! [--overlays-off]`
 //!
 //! `--overlays-off` adds, for each index, the same app with Bevy's gizmos, and with Bevy's
@@ -185,7 +185,15 @@ fn build_app(contender: Contender, n: usize, moving_pct: u32, kind: CameraKind) 
     {
         app.add_plugins((
             AccelPlugin {
-                settings: AccelSettings { index, ..default() },
+                settings: AccelSettings {
+                    index,
+                    // The choice settles within the warm-up instead of a second of frames.
+                    automatic: bevy_accel::AutomaticIndexSettings {
+                        hold_frames: 10,
+                        ..default()
+                    },
+                    ..default()
+                },
             },
             AccelCullingPlugin,
             AccelPickingPlugin,
@@ -289,6 +297,7 @@ fn main() {
         "quadtree" => IndexChoice::Quadtree,
         "grid" => IndexChoice::Grid,
         "brute" => IndexChoice::BruteForce,
+        "auto" => IndexChoice::Automatic,
         other => panic!("unknown index {other}"),
     })
     .collect();
@@ -318,6 +327,23 @@ fn main() {
                         app.update();
                     }
                 }
+                // The automatic choice: until its structure is the one it recommends (a
+                // switch filled off the frame lands some frames later).
+                for app in &mut apps {
+                    for _ in 0..400 {
+                        let settled = app.world().get_resource::<AccelStats>().is_none_or(|s| {
+                            s.automatic.is_none_or(|a| a.recommended == s.index)
+                                && !app
+                                    .world()
+                                    .resource::<AccelTrees>()
+                                    .index_switch_in_flight()
+                        });
+                        if settled {
+                            break;
+                        }
+                        app.update();
+                    }
+                }
                 let mut times = vec![Vec::with_capacity(frames); apps.len()];
                 let mut parts = vec![[const { Vec::new() }; 3]; apps.len()];
                 for _ in 0..frames {
@@ -334,11 +360,12 @@ fn main() {
                 }
                 let medians: Vec<Duration> = times.into_iter().map(median).collect();
                 let ms = |d: Duration| d.as_secs_f64() * 1e3;
-                for (c, part) in contenders.iter().zip(parts).skip(2) {
+                for ((c, part), app) in contenders.iter().zip(parts).zip(&apps).skip(2) {
                     let [sync, maintain, culling] = part.map(median);
+                    let index = app.world().resource::<AccelStats>().index;
                     eprintln!(
-                        "{n} {pct}% {kind:?} {}: sync {:.2} ms, maintain {:.2} ms, culling \
-                         {:.2} ms (medians)",
+                        "{n} {pct}% {kind:?} {} (on {index:?}): sync {:.2} ms, maintain {:.2} ms, \
+                         culling {:.2} ms (medians)",
                         c.label(),
                         ms(sync),
                         ms(maintain),

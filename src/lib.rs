@@ -67,7 +67,7 @@ pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::{AccelCullingPlugin, AccelCullingSettings};
-pub use index::{EntityIndex, IndexChoice};
+pub use index::{AutomaticIndexSettings, AutomaticIndexStats, EntityIndex, IndexChoice};
 #[cfg(feature = "sprite_picking")]
 pub use picking::AccelSpritePickingPlugin;
 #[cfg(feature = "picking")]
@@ -82,7 +82,7 @@ use bevy::transform::TransformSystems;
 
 /// The most used items.
 pub mod prelude {
-    pub use crate::index::{BvhIndexSettings, IndexChoice};
+    pub use crate::index::{AutomaticIndexSettings, BvhIndexSettings, IndexChoice};
     pub use crate::{
         AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
         AccelTracked, AccelTrees, StaticTreeBuild,
@@ -117,11 +117,13 @@ impl Plugin for AccelPlugin {
             .register_type::<index::IndexChoice>()
             .register_type::<StaticTreeBuild>()
             .register_type::<index::BvhIndexSettings>()
+            .register_type::<index::AutomaticIndexSettings>()
             .register_type::<AccelIgnore>()
             .register_type::<AccelStatic>()
             .register_type::<AccelTracked>()
             .init_resource::<AccelTrees>()
             .init_resource::<AccelStats>()
+            .init_resource::<index::AutomaticIndex>()
             .init_resource::<sync::PendingMembership>()
             .init_resource::<sync::RejectedEntities>()
             .configure_sets(
@@ -140,7 +142,9 @@ impl Plugin for AccelPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    sync::sync_trees.in_set(AccelSystems::Sync),
+                    (index::advise_index, sync::sync_trees)
+                        .chain()
+                        .in_set(AccelSystems::Sync),
                     index::maintain_index.in_set(AccelSystems::Maintain),
                     stats::publish_stats.in_set(AccelSystems::Stats),
                 ),

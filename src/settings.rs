@@ -1,6 +1,6 @@
 //! Runtime settings of the plugin.
 
-use crate::index::{BvhIndexSettings, IndexChoice};
+use crate::index::{AutomaticIndexSettings, BvhIndexSettings, IndexChoice};
 use bevy::prelude::*;
 use core::time::Duration;
 
@@ -27,6 +27,12 @@ pub struct AccelSettings {
     /// into a new index of that kind at the next sync (one insertion each); queries see the
     /// same entities before and after.
     pub index: IndexChoice,
+    /// A change of [`index`](Self::index) (or of the automatic choice) with at most this many
+    /// dynamic entities moves them in the frame; with more, the new structure is filled on
+    /// Bevy's async compute pool while the old one serves, and swapped in when done (see
+    /// [`AccelTrees::index_switch_in_flight`](crate::AccelTrees::index_switch_in_flight)),
+    /// so that a switch never stalls a frame by a whole fill.
+    pub index_switch_in_frame_up_to: usize,
     /// Time the dynamic index may spend per frame improving itself (the BVH's optimiser), in
     /// microseconds.
     pub upkeep_budget_micros: u32,
@@ -43,9 +49,11 @@ pub struct AccelSettings {
     /// How the static tree is built. Changing it rebuilds the static tree (as a change of the
     /// static set does: off the frame for large sets).
     pub static_build: StaticTreeBuild,
-    /// The BVH backend's settings, read while [`index`](Self::index) is
-    /// [`IndexChoice::Bvh`].
+    /// The BVH backend's settings, read while the BVH holds the movers ([`IndexChoice::Bvh`],
+    /// or [`IndexChoice::Automatic`] on the BVH).
     pub bvh: BvhIndexSettings,
+    /// The thresholds of [`IndexChoice::Automatic`].
+    pub automatic: AutomaticIndexSettings,
 }
 
 impl Default for AccelSettings {
@@ -55,10 +63,12 @@ impl Default for AccelSettings {
             require_marker: false,
             watch_static_motion: false,
             index: IndexChoice::default(),
+            index_switch_in_frame_up_to: 10_000,
             upkeep_budget_micros: 500,
             static_rebuild_in_frame_up_to: 0,
             static_build: StaticTreeBuild::default(),
             bvh: BvhIndexSettings::default(),
+            automatic: AutomaticIndexSettings::default(),
         }
     }
 }

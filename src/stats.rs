@@ -1,6 +1,6 @@
 //! What the trees did this frame, as a resource and as Bevy diagnostics.
 
-use crate::index::{BvhIndexStats, IndexChoice};
+use crate::index::{AutomaticIndexStats, BvhIndexStats, IndexChoice};
 use crate::trees::AccelTrees;
 use accel::query::{IndexStats, UpkeepReport};
 use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
@@ -16,6 +16,9 @@ pub struct AccelStats {
     pub updated: usize,
     /// Entities removed from a tree this frame.
     pub removed: usize,
+    /// Dynamic entities whose box the sync wrote this frame, whether or not a structure
+    /// changed (a move inside a fat leaf or a loose cell counts here, not in `updated`).
+    pub moved: usize,
     /// Entities currently left out for a bad transform or box.
     pub rejected: usize,
     /// True when a new static tree was swapped in this frame (built in the frame or off it).
@@ -37,7 +40,8 @@ pub struct AccelStats {
     pub dynamic_entities: usize,
     /// Entities in the static tree.
     pub static_entities: usize,
-    /// The structure holding the moving entities.
+    /// The structure holding the moving entities (never
+    /// [`IndexChoice::Automatic`]: the structure it chose).
     pub index: IndexChoice,
     /// Shape and cost of the dynamic index (nodes, depth, memory, quality against a fresh
     /// build where the structure tracks it), read in O(1).
@@ -46,6 +50,8 @@ pub struct AccelStats {
     pub last_upkeep: UpkeepReport,
     /// The BVH backend's own figures, while it is the index.
     pub bvh: Option<BvhIndexStats>,
+    /// What [`IndexChoice::Automatic`] saw and recommends, while it is the choice.
+    pub automatic: Option<AutomaticIndexStats>,
 }
 
 impl AccelStats {

@@ -6,6 +6,7 @@
 //! no static entity and touches no tree.
 
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
+use crate::index::AutomaticIndex;
 use crate::prefetch::{for_each_prefetched_in_two_stages, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
@@ -126,6 +127,7 @@ pub(crate) fn sync_trees(
     mut pending: ResMut<PendingMembership>,
     mut rejected: ResMut<RejectedEntities>,
     mut stats: ResMut<AccelStats>,
+    automatic: Res<AutomaticIndex>,
     membership: MembershipQuery,
     moved: MovedQuery<Without<AccelStatic>>,
     moved_static: MovedQuery<With<AccelStatic>>,
@@ -138,16 +140,16 @@ pub(crate) fn sync_trees(
     // nor the trees change).
     let tree_state = trees.bypass_change_detection();
     tree_state.clear_assigned_slots();
-    let switched = tree_state.query().choice() != settings.index;
-    if switched {
-        // Every dynamic entity moves to the new index: as many updates, for the readers.
-        let before = tree_state.query().dynamic_len();
-        let refused = tree_state.switch_index(settings.index);
-        for (entity, why) in refused.iter().copied() {
+    let target = automatic.resolve(settings.index);
+    let landed = tree_state.advance_index_switch(target, settings.index_switch_in_frame_up_to);
+    let switched = landed.is_some();
+    if let Some(landed) = landed {
+        // Every dynamic entity moved to the new index: as many updates, for the readers.
+        for (entity, why) in landed.refused.iter().copied() {
             reject(&mut rejected, entity, why);
         }
-        counts.updated += before - refused.len();
-        counts.removed += refused.len();
+        counts.updated += landed.moved;
+        counts.removed += landed.refused.len();
     }
 
     for entity in pending.0.drain() {
@@ -228,6 +230,7 @@ pub(crate) fn sync_trees(
     stats.inserted = counts.inserted;
     stats.updated = counts.updated;
     stats.removed = counts.removed;
+    stats.moved = counts.moved;
     stats.rejected = rejected.0.len();
     stats.static_rebuilt = static_rebuilt;
     stats.sync_time = start.elapsed();
@@ -238,6 +241,7 @@ struct SyncCounts {
     inserted: usize,
     updated: usize,
     removed: usize,
+    moved: usize,
 }
 
 fn place_checked(
@@ -266,6 +270,9 @@ fn place_checked(
                     Placed::Inserted => counts.inserted += 1,
                     Placed::Moved => counts.updated += 1,
                     Placed::Unchanged | Placed::Refused(_) | Placed::Evicted(_) => {}
+                }
+                if !is_static && matches!(placed, Placed::Moved | Placed::Unchanged) {
+                    counts.moved += 1;
                 }
             }
         },

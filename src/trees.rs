@@ -138,6 +138,8 @@ pub struct AccelTrees {
     /// The entity of each slot, packed: see [`AccelTrees::slot_entities`].
     entities_by_slot: Vec<Option<Entity>>,
     free_slots: Vec<u32>,
+    /// A switch of the movers' index being filled off the frame (see `trees_switch`).
+    switch: Option<switch::IndexSwitch>,
     /// Slots handed to an entity since the last sync began (see [`Self::assigned_slots`]).
     assigned_slots: Vec<u32>,
     /// The static set wanted, and the build that makes it the static tree.
@@ -594,3 +596,6 @@ impl AccelTrees {
 #[cfg(test)]
 #[path = "trees_tests.rs"]
 mod tests;
+
+#[path = "trees_switch.rs"]
+mod switch;

@@ -144,6 +144,124 @@ fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
 }
 
 #[test]
+fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_calm() {
+    let settings = AccelSettings {
+        index: IndexChoice::Automatic,
+        automatic: AutomaticIndexSettings {
+            min_entities: 100,
+            grid_at_entities: 100,
+            hold_frames: 3,
+            frames_between_switches: 0,
+            ..default()
+        },
+        ..default()
+    };
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    let mut rng = Rng::from_state(11);
+    let entities: Vec<Entity> = (0..1_000)
+        .map(|_| {
+            let t = Transform::from_translation(rng.vec3(-100.0, 100.0));
+            app.world_mut().spawn((t, unit_aabb())).id()
+        })
+        .collect();
+    let mut seen = Vec::new();
+    for frame in 0..80 {
+        // Half of them move for 40 frames, then all stand still.
+        if frame < 40 {
+            for &e in entities.iter().step_by(2) {
+                let world = app.world_mut();
+                world.get_mut::<Transform>(e).unwrap().translation += rng.vec3(-1.0, 1.0);
+            }
+        }
+        app.update();
+        check_consistency(&mut app);
+        let stats = app.world().resource::<AccelStats>();
+        let automatic = stats.automatic.expect("figures while automatic");
+        assert_eq!(stats.index, automatic.recommended);
+        if seen.last() != Some(&stats.index) {
+            seen.push(stats.index);
+        }
+    }
+    assert_eq!(
+        seen,
+        [IndexChoice::Bvh, IndexChoice::Grid, IndexChoice::Bvh]
+    );
+    // A fixed choice clears the automatic figures and is kept whatever moves.
+    app.world_mut().resource_mut::<AccelSettings>().index = IndexChoice::Octree;
+    app.update();
+    let stats = app.world().resource::<AccelStats>();
+    assert_eq!((stats.index, stats.automatic), (IndexChoice::Octree, None));
+}
+
+#[test]
+fn a_large_index_switch_is_filled_off_the_frame_and_lands_up_to_date() {
+    let settings = AccelSettings {
+        index_switch_in_frame_up_to: 100,
+        static_rebuild_in_frame_up_to: 0,
+        ..default()
+    };
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    let mut rng = Rng::from_state(5);
+    let mut live: Vec<Entity> = Vec::new();
+    let spawn = |app: &mut App, rng: &mut Rng, is_static: bool| {
+        let t = Transform::from_translation(rng.vec3(-80.0, 80.0));
+        let mut e = app.world_mut().spawn((t, unit_aabb()));
+        if is_static {
+            e.insert(AccelStatic);
+        }
+        e.id()
+    };
+    for i in 0..3_000 {
+        live.push(spawn(&mut app, &mut rng, i % 10 == 0));
+    }
+    app.update();
+    for target in [IndexChoice::Grid, IndexChoice::Octree, IndexChoice::Bvh] {
+        app.world_mut().resource_mut::<AccelSettings>().index = target;
+        let mut frames_in_flight = 0;
+        for frame in 0..200 {
+            // Motion, arrivals (some static, which wait in the dynamic index while the
+            // static tree is rebuilt off the frame) and departures while the fill runs.
+            for _ in 0..300 {
+                let e = live[rng.below(live.len())];
+                // Static entities promise not to move (and are not watched here).
+                if app.world().get::<AccelStatic>(e).is_some() {
+                    continue;
+                }
+                if let Some(mut t) = app.world_mut().get_mut::<Transform>(e) {
+                    t.translation += rng.vec3(-3.0, 3.0);
+                }
+            }
+            for i in 0..20 {
+                live.push(spawn(&mut app, &mut rng, i % 4 == 0));
+            }
+            for _ in 0..10 {
+                let e = live.swap_remove(rng.below(live.len()));
+                app.world_mut().despawn(e);
+            }
+            app.update();
+            check_consistency(&mut app);
+            let trees = app.world().resource::<AccelTrees>();
+            let in_dynamic = trees
+                .iter()
+                .filter(|(e, _)| trees.location(*e).unwrap().1 != TreeSlot::Static)
+                .count();
+            assert_eq!(trees.query().dynamic_len(), in_dynamic, "{target:?}");
+            if trees.index_switch_in_flight() {
+                frames_in_flight += 1;
+            } else if app.world().resource::<AccelStats>().index == target && frame > 0 {
+                break;
+            }
+        }
+        let stats = app.world().resource::<AccelStats>();
+        assert_eq!(stats.index, target);
+        // The first frame starts the fill; the old index served at least that frame.
+        assert!(frames_in_flight >= 1, "{target:?} switched in the frame");
+    }
+}
+
+#[test]
 fn static_scenery_streams_in_and_out_through_builds_off_the_frame() {
     // Static newcomers wait in the dynamic index and leavers' slots stay cleared while the
     // static tree is rebuilt on the async compute pool; queries see the same entities.
@@ -237,7 +355,13 @@ fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize)
         check_consistency(&mut app);
         let wanted = app.world().resource::<AccelSettings>().index;
         let stats = app.world().resource::<AccelStats>();
-        assert_eq!(stats.index, wanted);
+        match wanted {
+            IndexChoice::Automatic => {
+                let automatic = stats.automatic.expect("figures while automatic");
+                assert_eq!(stats.index, automatic.recommended);
+            }
+            fixed => assert_eq!(stats.index, fixed),
+        }
         built_off_the_frame += usize::from(stats.static_build_in_flight);
     }
     // The first load is built in its frame; later changes go off it only past the setting.

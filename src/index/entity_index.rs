@@ -6,7 +6,9 @@ use accel::dynamic::{
     DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair,
 };
 use accel::query::views::{ViewClassification, ViewMasks};
-use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexStats, NodeView, RayWalk};
+use accel::query::{
+    AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, NodeView, RayWalk,
+};
 use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use bevy::math::Vec3A;
 use core::ops::ControlFlow;
@@ -54,11 +56,23 @@ macro_rules! on_layers {
 }
 
 impl EntityIndex {
-    /// An empty dynamic index of the chosen kind over `static_tree`.
+    /// An empty dynamic index of the chosen kind over `static_tree`; the BVH for
+    /// [`IndexChoice::Automatic`], which starts there.
     pub fn new(choice: IndexChoice, static_tree: Bvh) -> Self {
-        match choice {
-            IndexChoice::Bvh => Self::Bvh(StaticDynamicPair::new(static_tree, DynamicBvh::new())),
-            other => Self::Layered(LayeredIndex::new(static_tree, AnyIndex::new(other.kind()))),
+        match choice.kind() {
+            None | Some(IndexKind::DynamicBvh) => {
+                Self::Bvh(StaticDynamicPair::new(static_tree, DynamicBvh::new()))
+            }
+            Some(kind) => Self::Layered(LayeredIndex::new(static_tree, AnyIndex::new(kind))),
+        }
+    }
+
+    /// A filled dynamic structure under an empty static tree (swap one in with
+    /// [`set_static_prepared`](Self::set_static_prepared)).
+    pub(crate) fn with_dynamic(dynamic: AnyIndex) -> Self {
+        match dynamic {
+            AnyIndex::DynamicBvh(bvh) => Self::Bvh(StaticDynamicPair::new(Bvh::default(), bvh)),
+            other => Self::Layered(LayeredIndex::new(Bvh::default(), other)),
         }
     }
 

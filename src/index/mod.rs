@@ -8,11 +8,15 @@
 //! - `entity_index`: the structures, queried as one.
 //! - `bvh_backend`: the BVH's settings, stats and upkeep (its ray snapshot policy).
 //! - `upkeep`: the per-frame maintenance system, and the switch between structures.
+//! - `automatic`: [`IndexChoice::Automatic`], the structure chosen from the workload.
 
+mod automatic;
 mod bvh_backend;
 mod entity_index;
 mod upkeep;
 
+pub(crate) use automatic::{AutomaticIndex, advise_index};
+pub use automatic::{AutomaticIndexSettings, AutomaticIndexStats};
 pub use bvh_backend::{BvhIndexSettings, BvhIndexStats};
 pub use entity_index::EntityIndex;
 pub(crate) use upkeep::maintain_index;
@@ -40,16 +44,22 @@ pub enum IndexChoice {
     /// A flat list: every query tests every moving entity. For a handful of movers, and to
     /// check the others against.
     BruteForce,
+    /// Chosen by the plugin from what it sees each frame (movers, rays, what is in view;
+    /// [`AutomaticIndexSettings`]): the BVH, or the grid for a busy set of movers that few
+    /// rays walk. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
+    /// names the structure in use.
+    Automatic,
 }
 
 impl IndexChoice {
     /// Every choice, in declaration order.
-    pub const ALL: [IndexChoice; 5] = [
+    pub const ALL: [IndexChoice; 6] = [
         IndexChoice::Bvh,
         IndexChoice::Octree,
         IndexChoice::Quadtree,
         IndexChoice::Grid,
         IndexChoice::BruteForce,
+        IndexChoice::Automatic,
     ];
 
     /// The choice after this one in [`Self::ALL`], wrapping around: for a key or a button that
@@ -58,22 +68,24 @@ impl IndexChoice {
     /// ```
     /// use bevy_accel::IndexChoice;
     /// assert_eq!(IndexChoice::Bvh.next(), IndexChoice::Octree);
-    /// assert_eq!(IndexChoice::BruteForce.next(), IndexChoice::Bvh);
+    /// assert_eq!(IndexChoice::Automatic.next(), IndexChoice::Bvh);
     /// ```
     pub fn next(self) -> Self {
         let i = Self::ALL.iter().position(|&c| c == self).unwrap_or(0);
         Self::ALL[(i + 1) % Self::ALL.len()]
     }
 
-    /// The core's structure behind this choice.
-    pub fn kind(self) -> accel::query::IndexKind {
+    /// The core's structure behind this choice; `None` for [`Automatic`](Self::Automatic),
+    /// which is one of the others at any time.
+    pub fn kind(self) -> Option<accel::query::IndexKind> {
         use accel::query::IndexKind;
         match self {
-            Self::Bvh => IndexKind::DynamicBvh,
-            Self::Octree => IndexKind::Octree,
-            Self::Quadtree => IndexKind::Quadtree,
-            Self::Grid => IndexKind::Grid,
-            Self::BruteForce => IndexKind::BruteForce,
+            Self::Bvh => Some(IndexKind::DynamicBvh),
+            Self::Octree => Some(IndexKind::Octree),
+            Self::Quadtree => Some(IndexKind::Quadtree),
+            Self::Grid => Some(IndexKind::Grid),
+            Self::BruteForce => Some(IndexKind::BruteForce),
+            Self::Automatic => None,
         }
     }
 
@@ -81,7 +93,7 @@ impl IndexChoice {
     pub fn of_kind(kind: accel::query::IndexKind) -> Self {
         Self::ALL
             .into_iter()
-            .find(|c| c.kind() == kind)
+            .find(|c| c.kind() == Some(kind))
             .unwrap_or_default()
     }
 }

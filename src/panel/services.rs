@@ -17,6 +17,7 @@ pub(super) struct ServiceControls<'w> {
     preview: Option<ResMut<'w, crate::preview::AccelPreviewSettings>>,
     #[cfg(feature = "preview")]
     preview_stats: Option<Res<'w, crate::preview::AccelPreviewStats>>,
+    stats: Option<Res<'w, crate::AccelStats>>,
 }
 
 /// Writes `edited` back only when the panel changed it: a resource written every frame would
@@ -70,7 +71,16 @@ impl ServiceControls<'_> {
             egui::Slider::new(&mut edited.upkeep_budget_micros, 0..=5_000)
                 .text("upkeep budget (µs)"),
         );
-        if edited.index == IndexChoice::Bvh {
+        if let Some(a) = self.stats.as_ref().and_then(|s| s.automatic) {
+            ui.label(format!(
+                "automatic: {:?} (moved {:.1}%, {:.0} rays, {:.1}% in view a frame)",
+                a.recommended,
+                a.moved_share * 100.0,
+                a.rays_per_frame,
+                a.visible_share * 100.0
+            ));
+        }
+        if matches!(edited.index, IndexChoice::Bvh | IndexChoice::Automatic) {
             ui.checkbox(&mut edited.bvh.background_rebuild, "Rebuild off the frame");
             ui.add(
                 egui::Slider::new(&mut edited.bvh.rebuild_threshold, 1.0..=4.0)

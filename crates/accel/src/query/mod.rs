@@ -12,7 +12,8 @@
 //!   queries are built on it ([`ray_walk`]).
 //! - [`DynamicIndex`]: an index over moving boxes (insert, update and remove by handle,
 //!   per-frame upkeep with a budget, stats, its nodes by depth for overlays), and
-//!   [`AnyIndex`], the one chosen at run time.
+//!   [`AnyIndex`], the one chosen at run time; [`IndexAdvisor`] chooses it from the
+//!   observed workload.
 //! - [`NodeView`] and [`visit_tree_nodes`]: the nodes of any [`BoundingTree`] level by level,
 //!   as [`DynamicIndex::visit_nodes`] gives those of a dynamic index.
 //! - [`TriangleQuery`]: exact ray hits and overlap on one mesh's triangles.
@@ -23,6 +24,7 @@
 mod brute_force;
 mod brute_force_mesh;
 mod dynamic_index;
+mod index_advisor;
 mod index_choice;
 mod nodes;
 pub mod ray_walk;
@@ -37,6 +39,7 @@ pub use brute_force::{BruteForceIndex, FlatHandle};
 pub use brute_force_mesh::BruteForceMesh;
 pub(crate) use brute_force_mesh::mesh_triangles;
 pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+pub use index_advisor::{IndexAdvice, IndexAdvisor, IndexWorkload};
 pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
 pub use nodes::{NodeView, visit_tree_nodes};
 pub(crate) use nodes::{count as node_entry_count, visit_levels};
