@@ -15,7 +15,7 @@ pub(crate) const LOOKUP_AHEAD: usize = 64;
 /// of Bevy's tables, so deciding entities by slot makes their component reads nearly sequential
 /// where the walk's spatial order makes each one a cache miss. Why not a comparison sort: at
 /// 1M entities with 5% in view, sorting the 50k finds took longer than the walk itself
-/// (`benches/culling.rs`; docs/experiments.md, Culling). When the finds are dense in the slot
+/// (`accel-bench culling`; docs/experiments.md, Culling). When the finds are dense in the slot
 /// range a bitset over the slots orders them in linear time instead.
 #[derive(Default)]
 pub(crate) struct FoundSlots {

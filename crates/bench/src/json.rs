@@ -26,7 +26,9 @@ pub struct Point {
     pub pareto: bool,
 }
 
-/// One row of the stress suite: a structure and a query, the cases run and what went wrong.
+/// One row of failure counts: a structure and a query, the cases run and what went wrong. The
+/// stress suite's rows, and the plugin suites' checks against Bevy (culling's false negatives,
+/// picking's wrong mesh hits, as misses).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct StressRow {
     /// The structure under test.
@@ -64,16 +66,19 @@ pub struct Report {
     pub seconds: f64,
     /// Time against error or quality.
     pub points: Vec<Point>,
+    /// A suite's own table in Markdown, one line each (the frame suite's, as the bench it
+    /// absorbed printed it), for pasting into BENCHMARKS.md.
+    pub markdown: Vec<String>,
     /// Figures derived from the points (ratios, speed-ups), one line each.
     pub notes: Vec<String>,
-    /// The stress suite's counts.
+    /// The failure counts (the stress suite's, and the plugin suites' checks against Bevy).
     pub stress: Vec<StressRow>,
     /// Sample messages of what failed (the first few), to start debugging from.
     pub failure_samples: Vec<String>,
 }
 
 impl Report {
-    /// Total stress failures (0 for the timing suites).
+    /// Total failures (0 for the suites that only time).
     pub fn failures(&self) -> u64 {
         self.stress.iter().map(StressRow::failures).sum()
     }

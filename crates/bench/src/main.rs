@@ -1,14 +1,19 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
-//! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]`
+//! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]
+//! [--overlays-off]`
 //!
-//! Suites: `stress` (correctness under numerically hostile input; exits non-zero on any
-//! miss, leak, panic or NaN), `build` (build time against tree quality), `update` (upkeep
-//! time under motion against quality loss), `rays` (ray time against error, with peers),
-//! `preview` (the ray-traced preview's image error against time, per top-level index), and
-//! `all`. Each prints a table, and optionally writes JSON and draws SVG plots of time against
-//! error or quality with the Pareto front marked. `--quick` shrinks every suite so that
-//! `all --quick` is a fast check (CI runs it for the stress counts).
+//! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
+//! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
+//! `update` (upkeep time under motion against quality loss), `rays` (ray time against error,
+//! with peers), `preview` (the ray-traced preview's image error against time, per top-level
+//! index). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
+//! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off), `culling`
+//! (the culling system alone; a false negative is a failure) and `picking` (per-ray time of
+//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure). `all` runs
+//! every suite. Each prints a table, and optionally writes JSON and draws SVG plots of time
+//! against error or quality with the Pareto front marked. `--quick` shrinks every suite so
+//! that `all --quick` is a fast check (CI runs it for the failure counts).
 
 mod json;
 mod pareto;
@@ -32,12 +37,19 @@ pub struct Options {
     pub json: Option<PathBuf>,
     /// Where to draw the SVG plots.
     pub plots: Option<PathBuf>,
+    /// The frame suite also runs the BVH app with Bevy's gizmos, and with the overlays
+    /// plugin, every overlay off.
+    pub overlays_off: bool,
 }
 
-const SUITES: [&str; 5] = ["stress", "build", "update", "rays", "preview"];
+const SUITES: [&str; 8] = [
+    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking",
+];
 
-const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR]\n\
-    SUITE: stress | build | update | rays | preview | all";
+const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
+    [--overlays-off]\n\
+    SUITE: stress | build | update | rays | preview | frame | culling | picking | all\n\
+    --overlays-off: the frame suite also times the overlays plugin with every overlay off";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
     let mut opts = Options {
@@ -45,11 +57,13 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
         quick: false,
         json: None,
         plots: None,
+        overlays_off: false,
     };
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
         match arg.as_str() {
             "--quick" => opts.quick = true,
+            "--overlays-off" => opts.overlays_off = true,
             "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
             "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),
             "-h" | "--help" => return Err(String::new()),
@@ -99,7 +113,7 @@ fn main() -> ExitCode {
     }
     let failures: u64 = reports.iter().map(json::Report::failures).sum();
     println!(
-        "\n{} suite(s) in {:.1} s; stress failures: {failures}",
+        "\n{} suite(s) in {:.1} s; failures: {failures}",
         reports.len(),
         started.elapsed().as_secs_f64()
     );

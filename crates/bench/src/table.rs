@@ -41,7 +41,7 @@ pub fn num(x: f64) -> String {
     }
 }
 
-/// Prints a suite's points (grouped by plot) and stress rows.
+/// Prints a suite's points (grouped by plot), its Markdown table, notes and stress rows.
 pub fn print_report(report: &Report) {
     println!("\n== {} ({:.1} s)", report.suite, report.seconds);
     if !report.points.is_empty() {
@@ -73,6 +73,13 @@ pub fn print_report(report: &Report) {
             ],
             &rows,
         );
+    }
+    if !report.markdown.is_empty() {
+        println!();
+        for line in &report.markdown {
+            println!("{line}");
+        }
+        println!();
     }
     for note in &report.notes {
         println!("  {note}");

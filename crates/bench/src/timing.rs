@@ -1,4 +1,5 @@
-//! Timing helpers: the best of several runs (a shared machine's noise only ever adds time).
+//! Timing helpers: the best of several runs (a shared machine's noise only ever adds time),
+//! and the median of per-frame figures.
 
 use std::time::Instant;
 
@@ -23,4 +24,17 @@ pub fn per_item<R>(runs: usize, n: usize, mut f: impl FnMut(usize) -> R) -> f64 
         }
     });
     t / n.max(1) as f64
+}
+
+/// The median of `values` (the mean of the middle two of an even count; 0 for none): for
+/// figures over frames, where one frame's stall (a rebuild installed, the machine's other
+/// tenants) must not move the figure the way it would move a mean.
+pub fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    match values.len() {
+        0 => 0.0,
+        len if len % 2 == 1 => values[mid],
+        _ => (values[mid - 1] + values[mid]) / 2.0,
+    }
 }

@@ -24,7 +24,7 @@ use std::time::Instant;
 /// Above this fraction of entities visible (in the view's previous frame), a flat
 /// pass over all entities beats the tree: a tree hit costs an entity lookup, about twice
 /// what the linear scan spends per entity, so the crossover sits near 20-50% (measured in
-/// `benches/culling.rs`: docs/experiments.md, Culling; the lower end is kept, where both cost
+/// `accel-bench culling`: docs/experiments.md, Culling; the lower end is kept, where both cost
 /// about the same).
 const FLAT_PASS_ABOVE: f32 = 0.2;
 

@@ -1,7 +1,14 @@
-//! The suites, one file each, and what they share: the point constructor, and the peers'
-//! adapters, included from `crates/accel/benches/common` (one copy, shared with the benches).
+//! The suites, one file (or folder) each, and what they share: the point constructor, the
+//! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
+//! benches), and the plugin tests' headless app, included from `tests/common`.
+//!
+//! `stress`, `build`, `update`, `rays` and `preview` measure the core crate alone; `frame`,
+//! `culling` and `picking` run the plugin in headless Bevy apps against Bevy's own systems.
 
 pub mod build;
+pub mod culling;
+pub mod frame;
+pub mod picking;
 pub mod preview;
 pub mod rays;
 pub mod stress;
@@ -10,6 +17,13 @@ pub mod update;
 // The peer adapters of the criterion benches, compiled here too rather than copied.
 #[path = "../../../accel/benches/common/mod.rs"]
 pub mod common;
+
+// The plugin tests' headless app and grid, compiled here too rather than copied. Its parts for
+// the plugin's optional features are behind `cfg(feature = ...)` of the root package, which
+// this crate does not have.
+#[path = "../../../../tests/common/mod.rs"]
+#[allow(unexpected_cfgs, reason = "the root package's features, off here")]
+pub mod plugin_common;
 
 use crate::Options;
 use crate::json::{Point, Report};
@@ -25,6 +39,9 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "update" => update::run(opts.quick),
         "rays" => rays::run(opts.quick),
         "preview" => preview::run(opts.quick),
+        "frame" => frame::run(opts.quick, opts.overlays_off),
+        "culling" => culling::run(opts.quick),
+        "picking" => picking::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }

@@ -1,0 +1,260 @@
+//! The frame suite's apps: the scene of wobbling boxes, the cameras, the pointer ray, and one
+//! app per contender built over the very same scene.
+
+use accel_testkit::Rng;
+use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::camera::visibility::{VisibilityClass, VisibilityPlugin};
+use bevy::math::primitives::ViewFrustum;
+use bevy::picking::mesh_picking::ray_cast::MeshRayCastSettings;
+use bevy::prelude::*;
+use bevy_accel::AccelCullingPlugin;
+use bevy_accel::prelude::*;
+use std::any::TypeId;
+
+/// The visibility class of the scene's boxes (Bevy culls per class).
+#[derive(Component, Default)]
+struct Drawable;
+
+/// A box that wobbles around `home`.
+#[derive(Component)]
+struct Mover {
+    home: Vec3,
+    phase: f32,
+}
+
+/// Frames run so far: the motion follows it, so every app moves its boxes alike.
+#[derive(Resource, Default)]
+struct FrameCount(u32);
+
+/// The pointer ray of the frame, from the camera along its view with a small wobble.
+#[derive(Resource)]
+struct PointerRay(Ray3d);
+
+/// One app of a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Contender {
+    /// Plain Bevy with no camera: what every other contender pays too.
+    Floor,
+    /// Plain Bevy with the camera, culled by Bevy's `check_visibility`.
+    Bevy,
+    /// The plugins with the movers in this index.
+    Accel(IndexChoice),
+    /// The same with Bevy's gizmos (`GizmoPlugin`) added, which the overlays draw with.
+    AccelGizmos(IndexChoice),
+    /// The same with Bevy's gizmos and `AccelOverlaysPlugin`, every overlay off.
+    AccelOverlaysOff(IndexChoice),
+}
+
+impl Contender {
+    /// The name of its table column and plot method.
+    pub fn label(self) -> String {
+        match self {
+            Self::Floor => "floor".into(),
+            Self::Bevy => "bevy".into(),
+            Self::Accel(index) => format!("accel/{index:?}"),
+            Self::AccelGizmos(index) => format!("accel/{index:?}+gizmos"),
+            Self::AccelOverlaysOff(index) => format!("accel/{index:?}+gizmos+overlays-off"),
+        }
+    }
+
+    /// Whether the app has the plugins (and so their statistics).
+    pub fn is_accel(self) -> bool {
+        matches!(
+            self,
+            Self::Accel(_) | Self::AccelGizmos(_) | Self::AccelOverlaysOff(_)
+        )
+    }
+}
+
+/// Where the camera looks from.
+#[derive(Clone, Copy, Debug)]
+pub enum CameraKind {
+    /// Straight down from above the field's centre, about 2% of it in view.
+    Strategy,
+    /// From the middle of one edge across the field, about 40% of it in view.
+    Ground,
+}
+
+/// One scene: the boxes, the share of them that moves, and the camera.
+#[derive(Clone, Copy, Debug)]
+pub struct Scene {
+    /// Boxes on the field.
+    pub entities: usize,
+    /// Percent of them that wobble every frame.
+    pub moving_pct: u32,
+    /// The camera.
+    pub camera: CameraKind,
+}
+
+/// Side of the square field for `n` boxes 4 units apart.
+fn field_side(n: usize) -> f32 {
+    (n as f32).sqrt().ceil() * 4.0
+}
+
+/// The camera's transform and frustum. Strategy: high enough for about 2% of the field (a
+/// 45-degree vertical view at 16:9 covers 1.22 h^2). Ground: 3 units up with a 45-degree
+/// horizontal view, which covers about 41% of a square from the middle of its edge.
+fn camera(kind: CameraKind, side: f32) -> (Transform, Frustum) {
+    let aspect = 16.0 / 9.0;
+    let (transform, vertical_fov) = match kind {
+        CameraKind::Strategy => {
+            let height = (0.02f32 / 1.219).sqrt() * side;
+            let eye = Vec3::new(side / 2.0, height, side / 2.0);
+            (
+                Transform::from_translation(eye).looking_at(eye - Vec3::Y, Vec3::NEG_Z),
+                45f32.to_radians(),
+            )
+        }
+        CameraKind::Ground => {
+            let eye = Vec3::new(-2.0, 3.0, side / 2.0);
+            let horizontal = 45f32.to_radians();
+            (
+                Transform::from_translation(eye).looking_at(eye + Vec3::X, Vec3::Y),
+                2.0 * ((horizontal / 2.0).tan() / aspect).atan(),
+            )
+        }
+    };
+    let proj = Mat4::perspective_rh(vertical_fov, aspect, 0.1, side * 4.0);
+    let view = transform.to_matrix().inverse();
+    (
+        transform,
+        Frustum(ViewFrustum::from_clip_from_world(&(proj * view))),
+    )
+}
+
+fn count_frame(mut frames: ResMut<FrameCount>) {
+    frames.0 += 1;
+}
+
+fn wobble(frames: Res<FrameCount>, mut movers: Query<(&Mover, &mut Transform)>) {
+    let t = frames.0 as f32 * 0.05;
+    for (mover, mut transform) in &mut movers {
+        let a = t + mover.phase;
+        transform.translation = mover.home + Vec3::new(a.sin(), 0.0, a.cos()) * 1.5;
+    }
+}
+
+fn aim_pointer(
+    frames: Res<FrameCount>,
+    camera: Query<&Transform, With<Camera>>,
+    mut pointer: ResMut<PointerRay>,
+) {
+    let Ok(t) = camera.single() else {
+        return;
+    };
+    let a = frames.0 as f32 * 0.1;
+    let dir =
+        t.forward().as_vec3() + (t.right().as_vec3() * a.sin() + t.up().as_vec3() * a.cos()) * 0.1;
+    pointer.0 = Ray3d::new(t.translation, Dir3::new(dir).unwrap_or(Dir3::NEG_Y));
+}
+
+/// A hover test's cost: bounds only, as a game's pointer over boxes would use.
+fn cast_pointer(mut ray_cast: AccelRayCast, pointer: Res<PointerRay>) {
+    let hits = ray_cast.cast_ray_bounds(pointer.0, f32::INFINITY, &MeshRayCastSettings::default());
+    std::hint::black_box(hits.len());
+}
+
+/// The app of `contender` over `scene`, finished and updated once (the boxes spawned and
+/// propagated). Every app draws the same boxes from the same seed, so all of a scene's apps
+/// hold the same world.
+pub fn build_app(contender: Contender, scene: Scene) -> App {
+    let n = scene.entities;
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        TransformPlugin,
+        VisibilityPlugin,
+    ))
+    .init_asset::<Mesh>()
+    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
+    .init_resource::<FrameCount>()
+    .add_systems(First, count_frame)
+    .add_systems(Update, wobble);
+    if let Contender::AccelGizmos(_) | Contender::AccelOverlaysOff(_) = contender {
+        app.add_plugins(bevy::gizmos::GizmoPlugin);
+    }
+    if let Contender::AccelOverlaysOff(_) = contender {
+        app.add_plugins(bevy_accel::overlays::AccelOverlaysPlugin);
+    }
+    if let Contender::Accel(index)
+    | Contender::AccelGizmos(index)
+    | Contender::AccelOverlaysOff(index) = contender
+    {
+        app.add_plugins((
+            AccelPlugin {
+                settings: AccelSettings {
+                    index,
+                    // The automatic choice settles within the warm-up rather than after a
+                    // second of frames; its thresholds are the defaults.
+                    automatic: bevy_accel::AutomaticIndexSettings {
+                        hold_frames: 10,
+                        ..default()
+                    },
+                    ..default()
+                },
+            },
+            AccelCullingPlugin,
+            AccelPickingPlugin,
+        ))
+        .insert_resource(PointerRay(Ray3d::new(Vec3::ZERO, Dir3::NEG_Y)))
+        .add_systems(Update, (aim_pointer, cast_pointer).chain());
+    }
+    app.finish();
+    let side = field_side(n);
+    let per_row = (n as f32).sqrt().ceil() as usize;
+    let movers = n * scene.moving_pct as usize / 100;
+    let mut class = VisibilityClass::default();
+    class.push(TypeId::of::<Drawable>());
+    let mut rng = Rng::new(0xf4a3e);
+    let boxes: Vec<(Vec3, f32)> = (0..n)
+        .map(|i| {
+            let home = Vec3::new(
+                (i % per_row) as f32 * 4.0 + rng.range(-1.0, 1.0),
+                rng.range(0.5, 1.5),
+                (i / per_row) as f32 * 4.0 + rng.range(-1.0, 1.0),
+            );
+            (home, rng.range(0.0, std::f32::consts::TAU))
+        })
+        .collect();
+    let bundle = |home: Vec3| {
+        (
+            Transform::from_translation(home),
+            Visibility::Visible,
+            class.clone(),
+            Drawable,
+            Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5)),
+        )
+    };
+    let world = app.world_mut();
+    // Movers spread over the whole field: every `stride`-th box.
+    let stride = n.checked_div(movers).unwrap_or(usize::MAX);
+    let mut moved = 0;
+    for (i, &(home, phase)) in boxes.iter().enumerate() {
+        if moved < movers && i % stride == 0 {
+            moved += 1;
+            world.spawn((bundle(home), Mover { home, phase }));
+        } else {
+            world.spawn(bundle(home));
+        }
+    }
+    if contender != Contender::Floor {
+        let (transform, frustum) = camera(scene.camera, side);
+        world.spawn((Camera::default(), transform, frustum));
+    }
+    app.update();
+    app
+}
+
+/// Percent of the scene's boxes in view after the app's last frame, by their
+/// `ViewVisibility` (which Bevy's culling and ours both write); `None` for the floor, which
+/// has no camera.
+pub fn visible_share(app: &mut App, contender: Contender, n: usize) -> Option<f64> {
+    if contender == Contender::Floor {
+        return None;
+    }
+    let world = app.world_mut();
+    let mut q = world.query_filtered::<&ViewVisibility, With<Drawable>>();
+    let visible = q.iter(world).filter(|v| v.get()).count();
+    Some(100.0 * visible as f64 / n.max(1) as f64)
+}

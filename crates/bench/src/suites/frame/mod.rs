@@ -1,0 +1,250 @@
+//! The whole frame against plain Bevy, the headline figure: apps with the same scene, updated
+//! in turn frame by frame, each `App::update` timed whole. Absorbs the former
+//! `benches/frame.rs`.
+//!
+//! - *floor*: plain Bevy with no camera, what both others pay (transform propagation, the
+//!   schedules, the motion system);
+//! - *bevy*: plain Bevy (no bevy_accel at all) with one camera, culled by Bevy's own
+//!   `check_visibility`;
+//! - *accel/<index>*: the same scene with `AccelPlugin`, `AccelCullingPlugin` and
+//!   `AccelPickingPlugin`, casting one pointer ray per frame (`AccelRayCast::cast_ray_bounds`),
+//!   the moving entities in the chosen index.
+//!
+//! Scenes: unit boxes on a square field, 4 units apart with a jitter, all of them dynamic (a
+//! user who marks nothing `AccelStatic`); a share of them wobble every frame. Cameras: a
+//! *strategy* camera looking down from above (about 2% of the field in view) and a *ground*
+//! camera at the edge of the field looking across it (about 40%; Bevy does not cull by the
+//! far plane).
+//!
+//! With `--overlays-off`, each scene also has the BVH app with Bevy's gizmos, and with Bevy's
+//! gizmos and `AccelOverlaysPlugin` with every overlay off: the difference of those two is
+//! what the overlays cost when they are not used (the same for every index: the overlays'
+//! systems do not run while off).
+//!
+//! Points: one per scene and contender, the median frame against the visible share's
+//! difference from Bevy's in percentage points (ours must equal Bevy's; the floor has no
+//! view). The Markdown table is the former bench's; the notes give each accel app's
+//! speed-ups (Bevy's frame over ours, whole and over the floor) and where its frame goes (the
+//! plugin's own timings of its sync, maintenance and culling).
+
+mod app;
+
+use super::point;
+use crate::json::{Point, Report};
+use crate::progress::Progress;
+use crate::timing::median;
+use app::{CameraKind, Contender, Scene, build_app, visible_share};
+use bevy::prelude::*;
+use bevy_accel::culling::CullingStats;
+use bevy_accel::prelude::*;
+use std::time::{Duration, Instant};
+
+/// One field size and what runs on it.
+struct Size {
+    entities: usize,
+    indexes: &'static [IndexChoice],
+    frames: usize,
+}
+
+/// The sizes of one run.
+struct Sizes {
+    sizes: &'static [Size],
+    moving: &'static [u32],
+    cameras: &'static [CameraKind],
+    warm_up: usize,
+}
+
+const FULL: Sizes = Sizes {
+    sizes: &[
+        Size {
+            entities: 100_000,
+            indexes: &IndexChoice::ALL,
+            frames: 40,
+        },
+        // The octree and the quadtree trail the others at 100k already; 1M of each would
+        // double the run.
+        Size {
+            entities: 1_000_000,
+            indexes: &[
+                IndexChoice::Bvh,
+                IndexChoice::Grid,
+                IndexChoice::BruteForce,
+                IndexChoice::Automatic,
+            ],
+            frames: 20,
+        },
+    ],
+    moving: &[0, 10, 25],
+    cameras: &[CameraKind::Strategy, CameraKind::Ground],
+    // First rebuilds, the ray snapshot's wait, caches.
+    warm_up: 20,
+};
+
+const QUICK: Sizes = Sizes {
+    sizes: &[Size {
+        entities: 10_000,
+        indexes: &[IndexChoice::Bvh, IndexChoice::Grid],
+        frames: 10,
+    }],
+    moving: &[0, 10],
+    cameras: &[CameraKind::Strategy, CameraKind::Ground],
+    warm_up: 10,
+};
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// What one app's measured frames gave, in milliseconds (medians).
+struct Timed {
+    frame: f64,
+    /// The plugin's sync, maintenance and culling (accel apps only).
+    parts: Option<[f64; 3]>,
+    visible_pct: Option<f64>,
+    /// The structure the movers were in at the end (what the automatic choice chose).
+    index: Option<IndexChoice>,
+}
+
+/// Runs every contender of `scene` in turn, frame by frame.
+fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize) -> Vec<Timed> {
+    let mut apps: Vec<App> = contenders.iter().map(|&c| build_app(c, scene)).collect();
+    for _ in 0..warm_up {
+        for app in &mut apps {
+            app.update();
+        }
+    }
+    // The automatic choice: until it runs on the structure it recommends (a switch filled
+    // off the frame lands some frames after the choice).
+    for app in &mut apps {
+        for _ in 0..400 {
+            let settled = app.world().get_resource::<AccelStats>().is_none_or(|s| {
+                s.automatic.is_none_or(|a| a.recommended == s.index)
+                    && !app
+                        .world()
+                        .resource::<bevy_accel::AccelTrees>()
+                        .index_switch_in_flight()
+            });
+            if settled {
+                break;
+            }
+            app.update();
+        }
+    }
+    let mut times = vec![Vec::with_capacity(frames); apps.len()];
+    let mut parts = vec![[const { Vec::new() }; 3]; apps.len()];
+    for _ in 0..frames {
+        for ((app, t), part) in apps.iter_mut().zip(&mut times).zip(&mut parts) {
+            let start = Instant::now();
+            app.update();
+            t.push(ms(start.elapsed()));
+            if let Some(stats) = app.world().get_resource::<AccelStats>() {
+                part[0].push(ms(stats.sync_time));
+                part[1].push(ms(stats.maintain_time));
+                part[2].push(ms(app.world().resource::<CullingStats>().time));
+            }
+        }
+    }
+    contenders
+        .iter()
+        .zip(apps.iter_mut())
+        .zip(times.into_iter().zip(parts))
+        .map(|((&c, app), (t, part))| Timed {
+            frame: median(t),
+            parts: c.is_accel().then(|| part.map(median)),
+            visible_pct: visible_share(app, c, scene.entities),
+            index: app.world().get_resource::<AccelStats>().map(|s| s.index),
+        })
+        .collect()
+}
+
+/// Runs the suite; `overlays_off` adds the overlays' contenders.
+pub fn run(quick: bool, overlays_off: bool) -> Report {
+    let sizes = if quick { QUICK } else { FULL };
+    let mut scenes: Vec<(Scene, &Size)> = Vec::new();
+    for size in sizes.sizes {
+        for &moving_pct in sizes.moving {
+            for &camera in sizes.cameras {
+                let scene = Scene {
+                    entities: size.entities,
+                    moving_pct,
+                    camera,
+                };
+                scenes.push((scene, size));
+            }
+        }
+    }
+    let mut progress = Progress::new("frame", scenes.len() + 1);
+    let mut points: Vec<Point> = Vec::new();
+    let mut notes = Vec::new();
+    let mut markdown = vec![
+        "| entities | moving | camera | visible (bevy / ours) | floor | bevy | index | accel | \
+         whole frame bevy/accel | over the floor bevy/accel |"
+            .to_string(),
+        "|---:|---:|---|---|---:|---:|---|---:|---:|---:|".to_string(),
+    ];
+    for (scene, size) in scenes {
+        let Scene {
+            entities: n,
+            moving_pct: pct,
+            camera,
+        } = scene;
+        let name = format!("{n} entities, {pct}% moving, {camera:?} camera");
+        progress.step(&name);
+        let mut contenders = vec![Contender::Floor, Contender::Bevy];
+        contenders.extend(size.indexes.iter().map(|&i| Contender::Accel(i)));
+        if overlays_off {
+            contenders.extend([
+                Contender::AccelGizmos(IndexChoice::Bvh),
+                Contender::AccelOverlaysOff(IndexChoice::Bvh),
+            ]);
+        }
+        let timed = measure(scene, &contenders, sizes.warm_up, size.frames);
+        let (floor, bevy) = (timed[0].frame, timed[1].frame);
+        let bevy_share = timed[1].visible_pct.unwrap_or(0.0);
+        // What each pays over the floor; a microsecond at least, so that a contender level
+        // with the floor gives a large ratio rather than a division by zero.
+        let over = |t: f64| (t - floor).max(1e-3);
+        for (&c, t) in contenders.iter().zip(&timed) {
+            let share_error = t.visible_pct.map(|share| (share - bevy_share).abs());
+            points.push(point(
+                &name,
+                &c.label(),
+                "",
+                ("ms per frame", t.frame),
+                ("visible share off Bevy's, points", share_error),
+            ));
+            let Some([sync, maintain, culling]) = t.parts else {
+                continue;
+            };
+            let (whole, over_floor) = (bevy / t.frame, over(bevy) / over(t.frame));
+            markdown.push(format!(
+                "| {n} | {pct}% | {camera:?} | {bevy_share:.1}% / {:.1}% | {:.2} ms | {:.2} ms | \
+                 {} | {:.2} ms | {whole:.2}x | {over_floor:.2}x |",
+                t.visible_pct.unwrap_or(0.0),
+                floor,
+                bevy,
+                c.label(),
+                t.frame,
+            ));
+            notes.push(format!(
+                "{name}, {} (on {:?}): bevy/accel {whole:.2}x whole frame, {over_floor:.2}x \
+                 over the floor; sync {:.2} ms, maintenance {:.2} ms, culling {:.2} ms (medians)",
+                c.label(),
+                t.index.unwrap_or_default(),
+                sync,
+                maintain,
+                culling
+            ));
+        }
+    }
+    progress.step("done");
+    progress.finish();
+    Report {
+        suite: "frame".into(),
+        quick,
+        points,
+        markdown,
+        notes,
+        ..Report::default()
+    }
+}
