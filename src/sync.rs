@@ -269,7 +269,7 @@ fn place_checked(
                 match placed {
                     Placed::Inserted => counts.inserted += 1,
                     Placed::Moved => counts.updated += 1,
-                    Placed::Unchanged | Placed::Refused(_) | Placed::Evicted(_) => {}
+                    Placed::Unchanged | Placed::Same | Placed::Refused(_) | Placed::Evicted(_) => {}
                 }
                 if !is_static && matches!(placed, Placed::Moved | Placed::Unchanged) {
                     counts.moved += 1;

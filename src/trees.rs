@@ -1,6 +1,6 @@
 //! The trees over the world's entities, and the map between tree slots and entities.
 
-use crate::index::{EntityIndex, IndexChoice};
+use crate::index::EntityIndex;
 pub use crate::local_frame::LocalFrame;
 use crate::prefetch::prefetch_all;
 use crate::scenery::{StaticScenery, StaticSwap};
@@ -78,6 +78,10 @@ pub(crate) enum Placed {
     Moved,
     /// Nothing a query can see changed (the move stayed inside the leaf's fat box).
     Unchanged,
+    /// The entity's world box is the one it had (its transform changed without moving the
+    /// box, or was only marked changed, as in the frames after a spawn): no index work, and
+    /// not a mover for the automatic choice.
+    Same,
     /// The dynamic tree refused a new entity's box, for the reason given; it stays untracked,
     /// and the caller reports it.
     Refused(&'static str),
@@ -301,7 +305,12 @@ impl AccelTrees {
         match self.tracked(entity) {
             Some(t) => match (t.tree, is_static) {
                 (TreeSlot::Dynamic(h), false) => {
+                    let same_box = self.slots[t.slot as usize].bounds() == bounds;
+                    // The frame is written even then: a turn can keep the world box.
                     self.slots[t.slot as usize] = SlotEntry::new(entity, bounds, frame);
+                    if same_box {
+                        return Placed::Same;
+                    }
                     self.pending_upkeep = true;
                     match self.index.update(h, bounds) {
                         Ok(true) => Placed::Moved,
@@ -560,28 +569,10 @@ impl AccelTrees {
         self.scenery.building()
     }
 
-    /// Moves every dynamic entity into a new, empty index of the chosen kind, keeping the
-    /// static tree. Returns the entities the new index refused, with the reason: they are
-    /// out of the trees, and the caller reports them as it reports any refusal.
-    ///
-    /// Why one insertion each rather than a bulk build: the new structure's own insertion is
-    /// what its later edits will do, so the switch leaves it as it would be after a run, and
-    /// a switch is a rare, user-driven event.
-    pub(crate) fn switch_index(&mut self, choice: IndexChoice) -> Vec<(Entity, &'static str)> {
-        let static_tree = self.index.take_static();
-        self.index = EntityIndex::new(choice, static_tree);
-        self.pending_upkeep = true;
-        let mut refused = Vec::new();
-        for record in self.tracked_by_index.iter_mut().flatten() {
-            if let TreeSlot::Dynamic(handle) | TreeSlot::StaticWaiting(handle) = &mut record.tree {
-                let bounds = self.slots[record.slot as usize].bounds();
-                match self.index.insert(record.slot, bounds) {
-                    Ok(new) => *handle = new,
-                    Err(e) => refused.push((record.entity, refusal(e))),
-                }
-            }
-        }
-        for &(entity, _) in &refused {
+    /// Takes out the entities a new index refused during a switch: their records still name
+    /// the old index's handles, which that index took with it.
+    fn untrack_refused(&mut self, refused: &[(Entity, &'static str)]) {
+        for &(entity, _) in refused {
             let t = self
                 .tracked(entity)
                 .expect("a refused entity is still tracked");
@@ -589,7 +580,6 @@ impl AccelTrees {
             self.tracked_count -= 1;
             self.vacate(t);
         }
-        refused
     }
 }
 

@@ -83,6 +83,31 @@ impl AccelTrees {
         None
     }
 
+    /// Moves every dynamic entity into a new, empty index of the chosen kind, keeping the
+    /// static tree. Returns the entities the new index refused, with the reason: they are
+    /// out of the trees, and the caller reports them as it reports any refusal.
+    ///
+    /// Why one insertion each rather than a bulk build: the new structure's own insertion is
+    /// what its later edits will do, so the switch leaves it as it would be after a run, and
+    /// a switch is a rare, user-driven event.
+    pub(crate) fn switch_index(&mut self, choice: IndexChoice) -> Vec<(Entity, &'static str)> {
+        let static_tree = self.index.take_static();
+        self.index = EntityIndex::new(choice, static_tree);
+        self.pending_upkeep = true;
+        let mut refused = Vec::new();
+        for record in self.tracked_by_index.iter_mut().flatten() {
+            if let TreeSlot::Dynamic(handle) | TreeSlot::StaticWaiting(handle) = &mut record.tree {
+                let bounds = self.slots[record.slot as usize].bounds();
+                match self.index.insert(record.slot, bounds) {
+                    Ok(new) => *handle = new,
+                    Err(e) => refused.push((record.entity, refusal(e))),
+                }
+            }
+        }
+        self.untrack_refused(&refused);
+        refused
+    }
+
     /// Whether a switch of the movers' index is being filled off the frame.
     pub fn index_switch_in_flight(&self) -> bool {
         self.switch.is_some()
@@ -153,14 +178,7 @@ impl AccelTrees {
             None => drop(old),
         }
         self.pending_upkeep = true;
-        for &(entity, _) in &refused {
-            let t = self
-                .tracked(entity)
-                .expect("a refused entity is still tracked");
-            self.tracked_by_index[entity.index_u32() as usize] = None;
-            self.tracked_count -= 1;
-            self.vacate(t);
-        }
+        self.untrack_refused(&refused);
         SwitchLanded { moved, refused }
     }
 }

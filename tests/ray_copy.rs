@@ -138,9 +138,10 @@ fn motion_without_rays_drops_the_snapshot_until_the_world_holds_still() {
     }
     assert!(has_snapshot(&app));
     for frame in 0..5 {
+        // Off the spawn point from the first frame: a box that stays put is no move.
         app.world_mut()
             .entity_mut(mover)
-            .insert(Transform::from_xyz(0.0, frame as f32, 0.0));
+            .insert(Transform::from_xyz(0.0, frame as f32 + 0.5, 0.0));
         app.update();
         assert!(!has_snapshot(&app), "frame {frame}: kept for no rays");
     }
@@ -156,7 +157,7 @@ fn motion_without_rays_drops_the_snapshot_until_the_world_holds_still() {
     }
     assert!(has_snapshot(&app));
     assert_eq!(
-        first_hit_down_z(&mut app, Vec3::new(0.0, 4.0, 5.0)),
+        first_hit_down_z(&mut app, Vec3::new(0.0, 4.5, 5.0)),
         Some(mover)
     );
 }

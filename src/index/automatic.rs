@@ -9,15 +9,15 @@ use bevy::prelude::*;
 
 /// The thresholds of [`IndexChoice::Automatic`], in
 /// [`AccelSettings::automatic`](crate::AccelSettings::automatic). The defaults follow the
-/// whole-frame figures (BENCHMARKS.md, Automatic index choice): the grid for a busy set of
-/// movers that few rays walk, when the set is large or much of it is in view; the BVH
-/// otherwise.
+/// whole-frame figures (BENCHMARKS.md, Whole frame): the grid for a busy set of movers that
+/// few rays walk when much of it is in view; the BVH otherwise.
 #[derive(Reflect, Clone, Debug, PartialEq)]
 #[reflect(Default)]
 pub struct AutomaticIndexSettings {
     /// Below this many dynamic entities the BVH is kept.
     pub min_entities: usize,
-    /// A busy set this large takes the grid whatever the views see.
+    /// A busy set this large takes the grid whatever the views see (`usize::MAX`, off, by
+    /// default: BENCHMARKS.md, Whole frame).
     pub grid_at_entities: usize,
     /// A smaller busy set takes the grid when the camera views see at least this share of
     /// the entities (only known with `AccelCullingPlugin`).

@@ -46,7 +46,7 @@ pub enum IndexChoice {
     BruteForce,
     /// Chosen by the plugin from what it sees each frame (movers, rays, what is in view;
     /// [`AutomaticIndexSettings`]): the BVH, or the grid for a busy set of movers that few
-    /// rays walk. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
+    /// rays walk while much of it is in view. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
     /// names the structure in use.
     Automatic,
 }
