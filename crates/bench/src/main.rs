@@ -1,21 +1,26 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
 //! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]
-//! [--overlays-off]`
+//! [--overlays-off] [--panel-closed]`
 //!
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
 //! `update` (upkeep time under motion against quality loss), `rays` (ray time against error,
 //! with peers), `preview` (the ray-traced preview's image error against time, per top-level
 //! index). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
-//! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off), `culling`
-//! (the culling system alone; a false negative is a failure) and `picking` (per-ray time of
-//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure). `all` runs
+//! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off,
+//! `--panel-closed` the closed panel's), `culling`
+//! (the culling system alone; a false negative is a failure), `lights` (the shadow views'
+//! culling against bevy_light's; a missing caster is a failure), `picking` (per-ray time of
+//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure), `sync` (the
+//! trees' upkeep per frame for each index choice) and `scenery` (streaming static scenery in
+//! and out against plain Bevy; an entity lost or kept is a failure). `all` runs
 //! every suite. Each prints a table, and optionally writes JSON and draws SVG plots of time
 //! against error or quality with the Pareto front marked. `--quick` shrinks every suite so
 //! that `all --quick` is a fast check (CI runs it for the failure counts).
 
 mod json;
+mod machine;
 mod pareto;
 mod plot;
 mod progress;
@@ -40,16 +45,32 @@ pub struct Options {
     /// The frame suite also runs the BVH app with Bevy's gizmos, and with the overlays
     /// plugin, every overlay off.
     pub overlays_off: bool,
+    /// The frame suite also runs the BVH app with bevy_egui, and with bevy_egui and the
+    /// panel plugin, the panel closed.
+    pub panel_closed: bool,
 }
 
-const SUITES: [&str; 8] = [
-    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking",
+const SUITES: &[&str] = &[
+    "stress",
+    "build",
+    "update",
+    "rays",
+    "preview",
+    "frame",
+    "culling",
+    #[cfg(feature = "light_culling")]
+    "lights",
+    "picking",
+    "sync",
+    "scenery",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
-    [--overlays-off]\n\
-    SUITE: stress | build | update | rays | preview | frame | culling | picking | all\n\
-    --overlays-off: the frame suite also times the overlays plugin with every overlay off";
+    [--overlays-off] [--panel-closed]\n\
+    SUITE: stress | build | update | rays | preview | frame | culling | lights | picking | sync |\n\
+    scenery | all\n\
+    --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
+    --panel-closed: the frame suite also times the panel plugin with the panel closed";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
     let mut opts = Options {
@@ -58,12 +79,14 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
         json: None,
         plots: None,
         overlays_off: false,
+        panel_closed: false,
     };
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
         match arg.as_str() {
             "--quick" => opts.quick = true,
             "--overlays-off" => opts.overlays_off = true,
+            "--panel-closed" => opts.panel_closed = true,
             "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
             "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),
             "-h" | "--help" => return Err(String::new()),

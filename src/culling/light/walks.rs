@@ -42,12 +42,12 @@ pub(super) fn light_sphere_may_reach(sphere: &Sphere, b: &accel::Aabb) -> bool {
 }
 
 /// Above this fraction of the tracked entities found by a light view's walk, the view is
-/// decided by a flat parallel pass instead. First an estimate from `benches/light_culling.rs`
-/// of a candidate's cost on the tree path (one thread, one lookup each) against a caster's in
-/// Bevy's loop (two threads). Once both paths took the walk's masks (`verdicts`), the
-/// bench's 100k directional view (about 69% found) measured about the same on either path,
-/// and its 1M one (2.6%) faster on the tree path, so the crossover lies between (the figures:
-/// docs/experiments.md, Light culling).
+/// decided by a flat parallel pass instead. First an estimate from the light-culling
+/// benchmark (now `accel-bench lights`) of a candidate's cost on the tree path (one thread,
+/// one lookup each) against a caster's in Bevy's loop (two threads). Once both paths took the
+/// walk's masks (`verdicts`), the bench's 100k directional view (about 69% found) measured
+/// about the same on either path, and its 1M one (2.6%) faster on the tree path, so the
+/// crossover lies between (the figures: docs/experiments.md, Light culling).
 const FLAT_LIGHT_VIEW_ABOVE: f32 = 1.0 / 3.0;
 
 /// A light view's last walk, kept for the next frame. Why: in a still scene a light's walk

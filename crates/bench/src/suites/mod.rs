@@ -3,15 +3,20 @@
 //! benches), and the plugin tests' headless app, included from `tests/common`.
 //!
 //! `stress`, `build`, `update`, `rays` and `preview` measure the core crate alone; `frame`,
-//! `culling` and `picking` run the plugin in headless Bevy apps against Bevy's own systems.
+//! `culling`, `lights`, `picking`, `sync` and `scenery` run the plugin in headless Bevy apps,
+//! against Bevy's own systems where Bevy has them.
 
 pub mod build;
 pub mod culling;
 pub mod frame;
+#[cfg(feature = "light_culling")]
+pub mod lights;
 pub mod picking;
 pub mod preview;
 pub mod rays;
+pub mod scenery;
 pub mod stress;
+pub mod sync;
 pub mod update;
 
 // The peer adapters of the criterion benches, compiled here too rather than copied.
@@ -39,9 +44,13 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "update" => update::run(opts.quick),
         "rays" => rays::run(opts.quick),
         "preview" => preview::run(opts.quick),
-        "frame" => frame::run(opts.quick, opts.overlays_off),
+        "frame" => frame::run(opts.quick, opts.overlays_off, opts.panel_closed),
         "culling" => culling::run(opts.quick),
         "picking" => picking::run(opts.quick),
+        "sync" => sync::run(opts.quick),
+        "scenery" => scenery::run(opts.quick),
+        #[cfg(feature = "light_culling")]
+        "lights" => lights::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }

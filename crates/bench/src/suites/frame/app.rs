@@ -43,6 +43,10 @@ pub enum Contender {
     AccelGizmos(IndexChoice),
     /// The same with Bevy's gizmos and `AccelOverlaysPlugin`, every overlay off.
     AccelOverlaysOff(IndexChoice),
+    /// The plugins with bevy_egui's `EguiPlugin`, which the panel draws with.
+    AccelEgui(IndexChoice),
+    /// The same with `AccelPanelPlugin`, the panel closed.
+    AccelPanelClosed(IndexChoice),
 }
 
 impl Contender {
@@ -54,6 +58,8 @@ impl Contender {
             Self::Accel(index) => format!("accel/{index:?}"),
             Self::AccelGizmos(index) => format!("accel/{index:?}+gizmos"),
             Self::AccelOverlaysOff(index) => format!("accel/{index:?}+gizmos+overlays-off"),
+            Self::AccelEgui(index) => format!("accel/{index:?}+egui"),
+            Self::AccelPanelClosed(index) => format!("accel/{index:?}+egui+panel-closed"),
         }
     }
 
@@ -61,7 +67,11 @@ impl Contender {
     pub fn is_accel(self) -> bool {
         matches!(
             self,
-            Self::Accel(_) | Self::AccelGizmos(_) | Self::AccelOverlaysOff(_)
+            Self::Accel(_)
+                | Self::AccelGizmos(_)
+                | Self::AccelOverlaysOff(_)
+                | Self::AccelEgui(_)
+                | Self::AccelPanelClosed(_)
         )
     }
 }
@@ -177,9 +187,39 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
     if let Contender::AccelOverlaysOff(_) = contender {
         app.add_plugins(bevy_accel::overlays::AccelOverlaysPlugin);
     }
+    if let Contender::AccelEgui(_) | Contender::AccelPanelClosed(_) = contender {
+        // What `DefaultPlugins` would bring for bevy_egui: input and window messages (no
+        // window is opened), shader and texture assets. No egui context: with no renderer
+        // to take its textures, egui's output could not be consumed, so the egui pass has
+        // nothing to run and what remains is each plugin's per-frame systems.
+        app.insert_resource(bevy_accel::panel::bevy_egui::EguiGlobalSettings {
+            auto_create_primary_context: false,
+            ..default()
+        })
+        .init_asset::<bevy::shader::Shader>()
+        .init_asset::<Image>()
+        .add_plugins((
+            bevy::input::InputPlugin,
+            bevy::window::WindowPlugin {
+                primary_window: None,
+                exit_condition: bevy::window::ExitCondition::DontExit,
+                ..default()
+            },
+            bevy_accel::panel::bevy_egui::EguiPlugin::default(),
+        ));
+    }
+    if let Contender::AccelPanelClosed(_) = contender {
+        app.insert_resource(bevy_accel::panel::AccelPanelSettings {
+            open: false,
+            ..default()
+        })
+        .add_plugins(bevy_accel::panel::AccelPanelPlugin);
+    }
     if let Contender::Accel(index)
     | Contender::AccelGizmos(index)
-    | Contender::AccelOverlaysOff(index) = contender
+    | Contender::AccelOverlaysOff(index)
+    | Contender::AccelEgui(index)
+    | Contender::AccelPanelClosed(index) = contender
     {
         app.add_plugins((
             AccelPlugin {

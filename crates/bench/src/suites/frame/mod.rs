@@ -19,7 +19,10 @@
 //! With `--overlays-off`, each scene also has the BVH app with Bevy's gizmos, and with Bevy's
 //! gizmos and `AccelOverlaysPlugin` with every overlay off: the difference of those two is
 //! what the overlays cost when they are not used (the same for every index: the overlays'
-//! systems do not run while off).
+//! systems do not run while off). With `--panel-closed`, the same for the panel: the BVH app
+//! with bevy_egui's `EguiPlugin`, and with it and `AccelPanelPlugin`, the panel closed
+//! (headless, so bevy_egui has no window to draw in either way; the difference is what the
+//! panel's own systems and run conditions cost while closed).
 //!
 //! Points: one per scene and contender, the median frame against the visible share's
 //! difference from Bevy's in percentage points (ours must equal Bevy's; the floor has no
@@ -157,8 +160,8 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
         .collect()
 }
 
-/// Runs the suite; `overlays_off` adds the overlays' contenders.
-pub fn run(quick: bool, overlays_off: bool) -> Report {
+/// Runs the suite; `overlays_off` adds the overlays' contenders, `panel_closed` the panel's.
+pub fn run(quick: bool, overlays_off: bool, panel_closed: bool) -> Report {
     let sizes = if quick { QUICK } else { FULL };
     let mut scenes: Vec<(Scene, &Size)> = Vec::new();
     for size in sizes.sizes {
@@ -196,6 +199,12 @@ pub fn run(quick: bool, overlays_off: bool) -> Report {
             contenders.extend([
                 Contender::AccelGizmos(IndexChoice::Bvh),
                 Contender::AccelOverlaysOff(IndexChoice::Bvh),
+            ]);
+        }
+        if panel_closed {
+            contenders.extend([
+                Contender::AccelEgui(IndexChoice::Bvh),
+                Contender::AccelPanelClosed(IndexChoice::Bvh),
             ]);
         }
         let timed = measure(scene, &contenders, sizes.warm_up, size.frames);

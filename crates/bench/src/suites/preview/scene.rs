@@ -10,6 +10,7 @@ use accel_testkit::shapes::{cube, icosphere};
 use accel_testkit::{Rng, bunny};
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use std::sync::Arc;
+use std::time::Instant;
 
 /// 25 bunnies in a jittered grid, 6 icospheres, 12 boxes and a ground.
 pub fn instances() -> Vec<PreviewInstance> {
@@ -105,13 +106,15 @@ pub fn tracer(mode: PreviewMode, (w, h): (u32, u32)) -> PreviewTracer {
 }
 
 /// One sample of every pixel of `image` on `threads` threads, 4-row tiles dealt round-robin
-/// (the plugin deals its tiles to Bevy's compute pool the same way).
+/// (the plugin deals its tiles to Bevy's compute pool the same way). Returns each thread's
+/// busy seconds: threads that end far apart mean an uneven deal, threads each slower than
+/// one alone mean the machine (shared caches, shared cores).
 pub fn trace_parallel(
     t: &PreviewTracer,
     scene: &dyn PreviewScene,
     image: &mut PreviewImage,
     threads: usize,
-) {
+) -> Vec<f64> {
     let height = image.height();
     let mut shares: Vec<Vec<_>> = (0..threads.max(1)).map(|_| Vec::new()).collect();
     let count = shares.len();
@@ -119,14 +122,23 @@ pub fn trace_parallel(
         shares[i % count].push(tile);
     }
     std::thread::scope(|s| {
-        for share in shares {
-            s.spawn(move || {
-                for mut tile in share {
-                    t.trace_tile(scene, &mut tile);
-                }
-            });
-        }
-    });
+        let workers: Vec<_> = shares
+            .into_iter()
+            .map(|share| {
+                s.spawn(move || {
+                    let start = Instant::now();
+                    for mut tile in share {
+                        t.trace_tile(scene, &mut tile);
+                    }
+                    start.elapsed().as_secs_f64()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .map(|w| w.join().expect("a tracing thread panicked"))
+            .collect()
+    })
 }
 
 /// Root mean square difference of two images' accumulated means, over every channel.
