@@ -12,8 +12,8 @@
 //! Each frame, before the timed update, every app despawns `k` of its boxes and spawns as
 //! many at random places (the same in every app). The apps are updated in turn, so the
 //! machine's slow phases fall on all of them. "Worst over bevy" is a contender's worst frame
-//! less plain Bevy's median: the stall a streaming frame adds (the 2 ms at 1M). The
-//! loading frame, every box new, is a note.
+//! less plain Bevy's median: the stall a streaming frame adds (its target: BENCHMARKS.md,
+//! Static scenery streaming). The loading frame, every box new, is a note.
 //!
 //! Points: the median frame against that stall. Checks: after the frames, each accel app
 //! tracks exactly the live boxes (an entity lost or kept after despawn is a leak in the
