@@ -13,6 +13,7 @@ pub mod preview;
 pub mod rays;
 pub mod stress;
 pub mod update;
+pub mod walks;
 
 // The peer adapters of the criterion benches, compiled here too rather than copied.
 #[path = "../../../accel/benches/common/mod.rs"]
@@ -42,6 +43,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "frame" => frame::run(opts.quick, opts.overlays_off),
         "culling" => culling::run(opts.quick),
         "picking" => picking::run(opts.quick),
+        "walks" => walks::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }
