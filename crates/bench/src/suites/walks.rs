@@ -33,6 +33,9 @@ use std::time::Instant;
 /// The queries, in the table's column order.
 const QUERIES: [&str; 5] = ["rays", "frustum", "six views", "boxes", "8 nearest"];
 
+/// One tree's timing and answers, run when its turn comes.
+type Measure<'a> = dyn Fn() -> ([f64; 5], Answers) + 'a;
+
 /// The peer's name in the table and plots.
 const SCAN: &str = "a linear scan (BruteForceIndex)";
 
@@ -269,7 +272,7 @@ fn ns(x: f64) -> String {
     let digits = whole.to_string();
     let mut out = String::new();
     for (i, ch) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i) % 3 == 0 {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
             out.push(',');
         }
         out.push(ch);
@@ -335,14 +338,18 @@ pub fn run(quick: bool) -> Report {
             report.points.push(point(
                 &format!("{scene}, {}", QUERIES[k]),
                 name,
-                if name == SCAN { "-" } else { "PLOC, leaves of 4" },
+                if name == SCAN {
+                    "-"
+                } else {
+                    "PLOC, leaves of 4"
+                },
                 ("ns per query", t),
                 ("bytes per box", Some(bytes as f64 / n as f64)),
             ));
         }
         rows.push((name.to_string(), times, bytes));
     };
-    let trees: [(&str, &dyn Fn() -> ([f64; 5], Answers), usize); 4] = [
+    let trees: [(&str, &Measure, usize); 4] = [
         (
             "Bvh",
             &|| {
@@ -354,7 +361,10 @@ pub fn run(quick: bool) -> Report {
         (
             "DynamicBvh",
             &|| {
-                let q = Queries { tree: &dynamic, w: &w };
+                let q = Queries {
+                    tree: &dynamic,
+                    w: &w,
+                };
                 (q.times(rounds), q.answers())
             },
             dynamic.memory_bytes(),
@@ -370,7 +380,10 @@ pub fn run(quick: bool) -> Report {
         (
             "SphereBvh",
             &|| {
-                let q = Queries { tree: &spheres, w: &w };
+                let q = Queries {
+                    tree: &spheres,
+                    w: &w,
+                };
                 (q.times(rounds), q.answers())
             },
             spheres.memory_bytes(),
@@ -386,8 +399,10 @@ pub fn run(quick: bool) -> Report {
     progress.step("Bvh8 rays by the shared walk");
     let shared = SharedRayWalk(&wide);
     let shared_ray = |r: &Ray| {
-        ray_walk::closest_hit(&shared, r, |i, ray| ray.intersect_aabb(&w.boxes[i as usize]))
-            .map(|h| h.t)
+        ray_walk::closest_hit(&shared, r, |i, ray| {
+            ray.intersect_aabb(&w.boxes[i as usize])
+        })
+        .map(|h| h.t)
     };
     let shared_ns = median_ns(rounds, w.rays.len(), || {
         w.rays.iter().for_each(|r| {
@@ -423,12 +438,18 @@ pub fn run(quick: bool) -> Report {
     report.markdown.push(format!(
         "| tree ({n} boxes) | rays | frustum | six views | boxes | 8 nearest | bytes per box |"
     ));
-    report.markdown.push("|---|---:|---:|---:|---:|---:|---:|".into());
+    report
+        .markdown
+        .push("|---|---:|---:|---:|---:|---:|---:|".into());
     for (name, times, bytes) in &rows {
         let cells: Vec<String> = times.iter().map(|&t| ns(t)).collect();
         report.markdown.push(format!(
             "| {} | {} | {:.1} |",
-            if *name == SCAN { name.to_string() } else { format!("`{name}`") },
+            if *name == SCAN {
+                name.to_string()
+            } else {
+                format!("`{name}`")
+            },
             cells.join(" | "),
             *bytes as f64 / n as f64
         ));

@@ -47,7 +47,9 @@ fn disagreements(updated: &InstancedScene, fresh: &InstancedScene, rays: &[Ray])
             let a = updated.cast_ray(r, Backfaces::Include).map(|h| h.hit.t);
             let b = fresh.cast_ray(r, Backfaces::Include).map(|h| h.hit.t);
             (a != b).then(|| {
-                format!("instance updates, ray {k}: updated scene hits at {a:?}, a new one at {b:?}")
+                format!(
+                    "instance updates, ray {k}: updated scene hits at {a:?}, a new one at {b:?}"
+                )
             })
         })
         .collect()

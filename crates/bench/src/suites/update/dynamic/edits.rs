@@ -112,13 +112,12 @@ fn all_moved_totals(s: &mut Section, boxes: &[Aabb], runs: usize) {
     let frame_ms = |mut frame: Box<dyn FnMut(Vec3A) + '_>| {
         // Two frames first: the refit schedule compiles, the caches warm.
         (0..runs + 2)
-            .map(|round| {
+            .filter_map(|round| {
                 let d = Vec3A::splat((round % 2) as f32);
                 let t = Instant::now();
                 frame(d);
                 (round >= 2).then(|| t.elapsed().as_secs_f64() * 1e3)
             })
-            .flatten()
             .fold(f64::INFINITY, f64::min)
     };
     let (mut tree, handles) = built_tree(boxes);
@@ -255,7 +254,12 @@ fn refits(s: &mut Section, boxes: &[Aabb], rounds: usize) {
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
     s.row(Row::peer(
         format!("the same on rayon's pool ({threads} threads)"),
-        (median(parallel), median(serial), "ns", "one thread, alternated"),
+        (
+            median(parallel),
+            median(serial),
+            "ns",
+            "one thread, alternated",
+        ),
         None,
     ));
     let (_, invalidated) = refit_per_leaf(boxes, true, rounds.div_ceil(2), false);

@@ -133,7 +133,9 @@ fn fresh_tight_cost(boxes: &[Aabb], tree: &DynamicBvh) -> f64 {
         sah_termination: false,
         ..BuildConfig::default()
     };
-    Bvh::build(boxes, &config).stats(&tree.config().sah).sah_cost as f64
+    Bvh::build(boxes, &config)
+        .stats(&tree.config().sah)
+        .sah_cost as f64
 }
 
 /// Closest hits through `tree` against a scan of `boxes`: the messages of the rays whose hit
@@ -184,9 +186,12 @@ fn snapshot(s: &mut Section, boxes: &[Aabb], rounds: usize) {
         let made = pair.snapshot_dynamic_for_rays(&config);
         inline.push(start.elapsed().as_secs_f64() * 1e3);
         if !made {
-            s.check("StaticDynamicPair", "ray snapshot", 1, vec![
-                "the snapshot of a changed dynamic tree was not made".into(),
-            ]);
+            s.check(
+                "StaticDynamicPair",
+                "ray snapshot",
+                1,
+                vec!["the snapshot of a changed dynamic tree was not made".into()],
+            );
             return;
         }
     }
@@ -209,7 +214,11 @@ fn snapshot(s: &mut Section, boxes: &[Aabb], rounds: usize) {
     ));
     s.row(Row::text(
         "the same on a background thread: caller's thread / until installed".into(),
-        format!("{} / {}", fig(median(starts), "ms"), fig(median(totals), "ms")),
+        format!(
+            "{} / {}",
+            fig(median(starts), "ms"),
+            fig(median(totals), "ms")
+        ),
         String::new(),
         String::new(),
     ));
@@ -236,10 +245,20 @@ pub fn run(s: &mut Section, boxes: &[Aabb], frame_count: usize, rounds: usize) {
             ob_stats.primitives
         )
     });
-    s.check("obvhs Bvh2 view", "leaves after the frames", 1, view_wrong.into_iter().collect());
+    s.check(
+        "obvhs Bvh2 view",
+        "leaves after the frames",
+        1,
+        view_wrong.into_iter().collect(),
+    );
     s.row(Row::peer(
         format!("frame: 10% moved by a random step, then maintenance (mean of {frame_count})"),
-        (f.mean_ms, ob_ms, "ms", "obvhs `resize_node` per moved leaf, no optimiser"),
+        (
+            f.mean_ms,
+            ob_ms,
+            "ms",
+            "obvhs `resize_node` per moved leaf, no optimiser",
+        ),
         None,
     ));
     s.row(Row::alone(
@@ -274,15 +293,26 @@ pub fn run(s: &mut Section, boxes: &[Aabb], frame_count: usize, rounds: usize) {
         f.tree.quality()
     ));
     let (cases, wrong) = check_rays(&f.tree, &f.boxes);
-    s.check("DynamicBvh after the frames", "closest hit vs a scan", cases, wrong);
-    s.points.push(point(&scene, "DynamicBvh", "default maintain", ("ms per frame", f.mean_ms), (
-        "SAH cost / fresh build",
-        Some(sah),
-    )));
-    s.points.push(point(&scene, "obvhs Bvh2", "resize_node", ("ms per frame", ob_ms), (
-        "SAH cost / fresh build",
-        Some(ob_cost),
-    )));
+    s.check(
+        "DynamicBvh after the frames",
+        "closest hit vs a scan",
+        cases,
+        wrong,
+    );
+    s.points.push(point(
+        &scene,
+        "DynamicBvh",
+        "default maintain",
+        ("ms per frame", f.mean_ms),
+        ("SAH cost / fresh build", Some(sah)),
+    ));
+    s.points.push(point(
+        &scene,
+        "obvhs Bvh2",
+        "resize_node",
+        ("ms per frame", ob_ms),
+        ("SAH cost / fresh build", Some(ob_cost)),
+    ));
     s.step("frames: refits only");
     let refit_only = DynamicBvhConfig {
         rotations: false,
@@ -293,10 +323,13 @@ pub fn run(s: &mut Section, boxes: &[Aabb], frame_count: usize, rounds: usize) {
     let r = ours(boxes, frame_count, refit_only);
     let r_sah =
         r.tree.stats(&r.tree.config().sah).sah_cost as f64 / fresh_tight_cost(&r.boxes, &r.tree);
-    s.points.push(point(&scene, "DynamicBvh", "refits only", ("ms per frame", r.mean_ms), (
-        "SAH cost / fresh build",
-        Some(r_sah),
-    )));
+    s.points.push(point(
+        &scene,
+        "DynamicBvh",
+        "refits only",
+        ("ms per frame", r.mean_ms),
+        ("SAH cost / fresh build", Some(r_sah)),
+    ));
     s.notes.push(format!(
         "refits only (no rotations, optimiser or rebuilds): {:.3} ms per frame, SAH {r_sah:.3}x \
          a fresh build's",
