@@ -7,7 +7,8 @@
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
 //! `update` (upkeep time under motion against quality loss), `rays` (ray time against error,
 //! with peers), `preview` (the ray-traced preview's image error against time, per top-level
-//! index). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
+//! index), `walks` (the shared walks' time per query through every tree, against a linear
+//! scan). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
 //! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off,
 //! `--panel-closed` the closed panel's), `culling`
 //! (the culling system alone; a false negative is a failure), `lights` (the shadow views'
@@ -63,12 +64,13 @@ const SUITES: &[&str] = &[
     "picking",
     "sync",
     "scenery",
+    "walks",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
     [--overlays-off] [--panel-closed]\n\
     SUITE: stress | build | update | rays | preview | frame | culling | lights | picking | sync |\n\
-    scenery | all\n\
+    scenery | walks | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
     --panel-closed: the frame suite also times the panel plugin with the panel closed";
 

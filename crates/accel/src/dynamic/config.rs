@@ -40,9 +40,9 @@ pub struct DynamicBvhConfig {
     /// thread. Needs the cargo feature `rayon`; without it this is ignored.
     ///
     /// Off by default: on a two-vCPU machine the parallel replay measured slower than one
-    /// thread (`dynamic_timing --features rayon`; docs/experiments.md, Dynamic BVH), the
-    /// replay being bound by memory bandwidth the vCPUs share. Worth measuring on a machine
-    /// with more cores and memory channels.
+    /// thread (`accel-bench update`; docs/experiments.md, Dynamic BVH), the replay being
+    /// bound by memory bandwidth the vCPUs share. Worth measuring on a machine with more
+    /// cores and memory channels.
     pub parallel_refit: bool,
 }
 

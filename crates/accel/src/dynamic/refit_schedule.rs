@@ -4,9 +4,9 @@
 //! A depth-first refit over the arena is a chain of dependent loads: each node's children are
 //! known only once the node has arrived, and the arena's order is random after insertions, so
 //! at 100k leaves every step waits a full memory latency, an order of magnitude longer than
-//! a line costs when the loads are independent and prefetched (the `dynamic_timing` example
-//! measures both; docs/experiments.md, Dynamic BVH). The schedule turns the refit into
-//! independent loads:
+//! a line costs when the loads are independent and prefetched (`accel-bench update` measures
+//! both; docs/experiments.md, Dynamic BVH). The schedule turns the refit into independent
+//! loads:
 //!
 //! - **Compiling** walks the tree breadth-first. The queue names every node long before it
 //!   is read, so each is prefetched a fixed number of entries ahead and the reads overlap
@@ -37,10 +37,10 @@ use crate::prefetch::prefetch_node;
 const LEAF_CHILD: u32 = 1 << 31;
 
 /// How many entries ahead the replay asks for the nodes it will read and write. Why 40: at
-/// 100k leaves, with the whole arena in the last-level cache, `dynamic_timing` measured
-/// distances from 6 to 160 entries; shorter ones leave part of each load's latency
-/// uncovered, longer ones measured slower too, and 40 was the fastest (the figures are in
-/// docs/experiments.md, Dynamic BVH).
+/// 100k leaves, with the whole arena in the last-level cache, distances from 6 to 160
+/// entries were measured; shorter ones leave part of each load's latency uncovered, longer
+/// ones measured slower too, and 40 was the fastest (the figures are in docs/experiments.md,
+/// Dynamic BVH).
 const PREFETCH_DISTANCE: usize = 40;
 
 /// How many queue entries ahead compilation asks for nodes: its steps are short, so it must

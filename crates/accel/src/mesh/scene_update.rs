@@ -141,8 +141,8 @@ impl InstancedScene {
     /// Why 10%: with 10,000 instances of which 10% or all move every frame, rays through
     /// the updated top level stayed within a few percent of a fresh one's at a fraction of a
     /// new scene's cost a frame; looser thresholds saved little time for clearly slower
-    /// rays, and never rebuilding let rays fall far behind (`scene_update_timing`;
-    /// BENCHMARKS.md, Mesh builds and instanced scenes; docs/experiments.md, same section).
+    /// rays, and never rebuilding let rays fall far behind (BENCHMARKS.md, Mesh builds and
+    /// instanced scenes; docs/experiments.md, same section).
     pub const DEFAULT_REBUILD_THRESHOLD: f32 = 1.1;
 
     /// Sets how much looser than when it was built refits may leave the top level before
@@ -267,7 +267,7 @@ impl InstancedScene {
         // Why: where one update's motion loosens a fresh tree past the threshold (instances
         // moving their own size every frame), the refit is wasted work before the rebuild:
         // at 100,000 instances all moving it made a frame markedly dearer than the rebuild
-        // alone (`scene_update_timing`; docs/experiments.md, Mesh builds and instanced scenes).
+        // alone (docs/experiments.md, Mesh builds and instanced scenes).
         if upkeep.fresh {
             upkeep.refits_fail_from = Some(changed_count);
             upkeep.direct_rebuilds = 0;

@@ -18,6 +18,7 @@ pub mod scenery;
 pub mod stress;
 pub mod sync;
 pub mod update;
+pub mod walks;
 
 // The peer adapters of the criterion benches, compiled here too rather than copied.
 #[path = "../../../accel/benches/common/mod.rs"]
@@ -51,6 +52,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "scenery" => scenery::run(opts.quick),
         #[cfg(feature = "light_culling")]
         "lights" => lights::run(opts.quick),
+        "walks" => walks::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }

@@ -3,6 +3,13 @@
 //! loose octree and the uniform grid. Each frame a tenth of the entries take a step of up to
 //! 1% of the world; after the frames, the structure's ray time (and for the dynamic BVH its
 //! SAH cost) is set against a fresh build of the same kind over the same boxes.
+//!
+//! Two parts of their own follow: the dynamic BVH at full size against obvhs ([`dynamic`],
+//! BENCHMARKS.md's "Dynamic BVH") and a two-level scene's instance updates against a new
+//! scene each frame ([`instances`], the instance rows of "Mesh builds and instanced scenes").
+
+mod dynamic;
+mod instances;
 
 use super::{incoherent_rays, point};
 use crate::json::{Point, Report};
@@ -227,10 +234,13 @@ pub fn run(quick: bool) -> Report {
     );
     progress.step("done");
     progress.finish();
-    Report {
+    let mut report = Report {
         suite: "update".into(),
         quick,
         points,
         ..Report::default()
-    }
+    };
+    dynamic::run(quick, &mut report);
+    instances::run(quick, &mut report);
+    report
 }

@@ -1,7 +1,7 @@
-//! accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of
-//! `crates/accel/benches/dynamic_bvh.rs`: 100,000 boxes, centres uniform in [-200, 200]^3,
-//! half extents 0.1-1.0, one thread, both trees in the same process, each figure the best of
-//! several runs.
+//! accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of the bench tool's
+//! dynamic BVH rows (`crates/accel/benches/common/dynamic_workload.rs`): 100,000 boxes,
+//! centres uniform in [-200, 200]^3, half extents 0.1-1.0, one thread, both trees in the same
+//! process, each figure the best of several runs.
 //!
 //! - insert / remove: 1,000 operations on a tree of 100k leaves, per operation;
 //! - move all: every leaf moved by 1 unit, then the tree brought up to date (ours: `update` x
