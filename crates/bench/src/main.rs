@@ -6,7 +6,8 @@
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
 //! `update` (upkeep time under motion against quality loss), `rays` (ray time against error,
-//! with peers), `preview` (the ray-traced preview's image error against time, per top-level
+//! with peers), `meshes` (mesh BVH build and refit time against tree quality, with peers),
+//! `preview` (the ray-traced preview's image error against time, per top-level
 //! index). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
 //! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off), `culling`
 //! (the culling system alone; a false negative is a failure) and `picking` (per-ray time of
@@ -42,13 +43,13 @@ pub struct Options {
     pub overlays_off: bool,
 }
 
-const SUITES: [&str; 8] = [
-    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking",
+const SUITES: [&str; 9] = [
+    "stress", "build", "update", "rays", "meshes", "preview", "frame", "culling", "picking",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
     [--overlays-off]\n\
-    SUITE: stress | build | update | rays | preview | frame | culling | picking | all\n\
+    SUITE: stress | build | update | rays | meshes | preview | frame | culling | picking | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {

@@ -2,15 +2,18 @@
 //! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
 //! benches), and the plugin tests' headless app, included from `tests/common`.
 //!
-//! `stress`, `build`, `update`, `rays` and `preview` measure the core crate alone; `frame`,
+//! `stress`, `build`, `update`, `rays`, `meshes` and `preview` measure the core crate alone; `frame`,
 //! `culling` and `picking` run the plugin in headless Bevy apps against Bevy's own systems.
 
 pub mod build;
 pub mod culling;
 pub mod frame;
+pub mod meshes;
 pub mod picking;
 pub mod preview;
 pub mod rays;
+pub mod rounds;
+pub mod static_builds;
 pub mod stress;
 pub mod update;
 
@@ -38,6 +41,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "build" => build::run(opts.quick),
         "update" => update::run(opts.quick),
         "rays" => rays::run(opts.quick),
+        "meshes" => meshes::run(opts.quick),
         "preview" => preview::run(opts.quick),
         "frame" => frame::run(opts.quick, opts.overlays_off),
         "culling" => culling::run(opts.quick),
