@@ -6,7 +6,8 @@
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
 //! `update` (upkeep time under motion against quality loss), `rays` (ray time against error,
-//! with peers), `preview` (the ray-traced preview's image error against time, per top-level
+//! with peers), `meshes` (mesh BVH build and refit time against tree quality, with peers),
+//! `preview` (the ray-traced preview's image error against time, per top-level
 //! index), `walks` (the shared walks' time per query through every tree, against a linear
 //! scan). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
 //! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off,
@@ -56,6 +57,7 @@ const SUITES: &[&str] = &[
     "build",
     "update",
     "rays",
+    "meshes",
     "preview",
     "frame",
     "culling",
@@ -69,7 +71,7 @@ const SUITES: &[&str] = &[
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
     [--overlays-off] [--panel-closed]\n\
-    SUITE: stress | build | update | rays | preview | frame | culling | lights | picking | sync |\n\
+    SUITE: stress | build | update | rays | meshes | preview | frame | culling | lights | picking | sync |\n\
     scenery | walks | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
     --panel-closed: the frame suite also times the panel plugin with the panel closed";

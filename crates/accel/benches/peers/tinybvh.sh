@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Builds the tinybvh peer (tinybvh_peer.cpp beside this script) and prints the path of the
-# binary, for the examples that time tinybvh in the same rounds as ours:
+# binary, for the accel-bench suites that time tinybvh in the same rounds as ours (`build`,
+# `rays`, `meshes`):
 #
-#   TINYBVH_PEER=$(crates/accel/benches/peers/tinybvh.sh) \
-#     cargo run --release -p accel --example ray_timing
+#   TINYBVH_PEER=$(crates/accel/benches/peers/tinybvh.sh) cargo run -p accel-bench -- rays
 #
 # tinybvh is a single C++ header. It is not copied into this repository: cargo fetches the
 # `tinybvh-rs` crate, which ships tiny_bvh.h, into its registry, and g++ compiles against it

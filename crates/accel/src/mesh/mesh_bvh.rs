@@ -146,9 +146,9 @@ impl MeshBvh {
     /// triangles, Karras and Aila's choice.
     ///
     /// On the 1M-triangle benchmark scene (bunnies among large slanted triangles,
-    /// `examples/ray_timing.rs`) every kind of ray traces faster than over whole triangles,
-    /// for a build about twice as long; budgets from 0.2 to 0.4 trace alike
-    /// (docs/experiments.md, Rays on meshes). A mesh of like triangles (a tessellated sphere,
+    /// then `examples/ray_timing.rs`, now `accel-bench rays`) every kind of ray traces faster
+    /// than over whole triangles, for a build about twice as long; budgets from 0.2 to 0.4
+    /// trace alike (docs/experiments.md, Rays on meshes). A mesh of like triangles (a tessellated sphere,
     /// the bunny) has none worth cutting and builds as before, less a pass over its
     /// triangles.
     pub const DEFAULT_SPLIT_BUDGET: f32 = 0.3;
@@ -164,8 +164,9 @@ impl MeshBvh {
     /// Why the two builds: on a 1,088-triangle sphere the binned tree answers rays faster than
     /// the PLOC one (and both build in a blink); on the 1M-triangle benchmark scene PLOC
     /// builds more than twice as fast and its tree traces as fast or faster
-    /// (`examples/ray_timing.rs`, `examples/mesh_timing.rs`; docs/experiments.md, Static BVH
-    /// builds). Where between the two the crossover lies was not measured.
+    /// (then `examples/ray_timing.rs` and `examples/mesh_timing.rs`, now `accel-bench rays`
+    /// and `meshes`; docs/experiments.md, Static BVH builds). Where between the two the
+    /// crossover lies was not measured.
     pub fn default_config(triangles: usize) -> BuildConfig {
         if triangles <= 1 << 16 {
             BuildConfig::default()

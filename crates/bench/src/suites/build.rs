@@ -4,7 +4,8 @@
 //! mesh BVH's builds on the triangle scenes.
 //!
 //! This covers `examples/build_timing.rs` (split strategies over random boxes, time and SAH
-//! cost), which it replaces.
+//! cost), which it replaces. BENCHMARKS.md's "Static BVH builds" table, with its peers timed
+//! round by round, comes from [`super::static_builds`].
 
 use super::{incoherent_rays, point};
 use crate::json::{Point, Report};
@@ -255,10 +256,12 @@ pub fn run(quick: bool) -> Report {
         progress.step(&scene.name);
     }
     progress.finish();
-    Report {
+    let mut report = Report {
         suite: "build".into(),
         quick,
         points,
         ..Report::default()
-    }
+    };
+    super::static_builds::add(quick, &mut report);
+    report
 }

@@ -2,19 +2,22 @@
 //! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
 //! benches), and the plugin tests' headless app, included from `tests/common`.
 //!
-//! `stress`, `build`, `update`, `rays` and `preview` measure the core crate alone; `frame`,
-//! `culling`, `lights`, `picking`, `sync` and `scenery` run the plugin in headless Bevy apps,
-//! against Bevy's own systems where Bevy has them.
+//! `stress`, `build`, `update`, `rays`, `meshes`, `walks` and `preview` measure the core
+//! crate alone; `frame`, `culling`, `lights`, `picking`, `sync` and `scenery` run the plugin in
+//! headless Bevy apps, against Bevy's own systems where Bevy has them.
 
 pub mod build;
 pub mod culling;
 pub mod frame;
 #[cfg(feature = "light_culling")]
 pub mod lights;
+pub mod meshes;
 pub mod picking;
 pub mod preview;
 pub mod rays;
+pub mod rounds;
 pub mod scenery;
+pub mod static_builds;
 pub mod stress;
 pub mod sync;
 pub mod update;
@@ -44,6 +47,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "build" => build::run(opts.quick),
         "update" => update::run(opts.quick),
         "rays" => rays::run(opts.quick),
+        "meshes" => meshes::run(opts.quick),
         "preview" => preview::run(opts.quick),
         "frame" => frame::run(opts.quick, opts.overlays_off, opts.panel_closed),
         "culling" => culling::run(opts.quick),

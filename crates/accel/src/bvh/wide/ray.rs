@@ -403,7 +403,7 @@ pub(super) fn visit_ray<
         // Insertion sort by entry distance: at most N items. Written out here and again for
         // the interior children below: one shared helper (a sort-order argument and a
         // closure for the stored value) ran rays clearly slower on the 1M-triangle scene
-        // (`ray_timing`, alternated with this code; docs/experiments.md, Rays on meshes), so
+        // (`ray_timing`, now `accel-bench rays`, alternated with this code; docs/experiments.md, Rays on meshes), so
         // the two loops stay apart.
         let range_before = ray.t_max;
         let mut leaf_order = [(0.0f32, 0u32); N];
