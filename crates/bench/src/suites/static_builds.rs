@@ -68,7 +68,7 @@ fn short(n: usize) -> String {
     }
 }
 
-/// A build time with its rate: `167.7 ms (5.96 M/s)`.
+/// A build time with its rate, as `<ms> ms (<millions per second> M/s)`.
 fn ms_rate(s: f64, n: usize) -> String {
     format!("{:.1} ms ({:.2} M/s)", s * 1e3, n as f64 / s / 1e6)
 }
