@@ -10,7 +10,11 @@
 //! index). Suites of the plugin, in headless Bevy apps against Bevy's own systems: `frame`
 //! (the whole `App::update`; `--overlays-off` adds the overlays' cost while off), `culling`
 //! (the culling system alone; a false negative is a failure) and `picking` (per-ray time of
-//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure). `all` runs
+//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure). More suites of
+//! the core crate: `geometry` (the cost of one geometric test, against its f64 error),
+//! `structures` (the loose octree and the uniform grid against the dynamic BVH, the quadtree
+//! against rstar) and `triangles` (the kd-tree against the mesh BVH and kdtree-ray, the BSP
+//! tree). `all` runs
 //! every suite. Each prints a table, and optionally writes JSON and draws SVG plots of time
 //! against error or quality with the Pareto front marked. `--quick` shrinks every suite so
 //! that `all --quick` is a fast check (CI runs it for the failure counts).
@@ -42,13 +46,15 @@ pub struct Options {
     pub overlays_off: bool,
 }
 
-const SUITES: [&str; 8] = [
-    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking",
+const SUITES: [&str; 11] = [
+    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking", "geometry",
+    "structures", "triangles",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
     [--overlays-off]\n\
-    SUITE: stress | build | update | rays | preview | frame | culling | picking | all\n\
+    SUITE: stress | build | update | rays | preview | frame | culling | picking | geometry | \
+    structures | triangles | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {

@@ -2,16 +2,20 @@
 //! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
 //! benches), and the plugin tests' headless app, included from `tests/common`.
 //!
-//! `stress`, `build`, `update`, `rays` and `preview` measure the core crate alone; `frame`,
-//! `culling` and `picking` run the plugin in headless Bevy apps against Bevy's own systems.
+//! `stress`, `build`, `update`, `rays`, `preview`, `geometry`, `structures` and `triangles`
+//! measure the core crate alone; `frame`, `culling` and `picking` run the plugin in headless
+//! Bevy apps against Bevy's own systems.
 
 pub mod build;
 pub mod culling;
 pub mod frame;
+pub mod geometry;
 pub mod picking;
 pub mod preview;
 pub mod rays;
 pub mod stress;
+pub mod structures;
+pub mod triangles;
 pub mod update;
 
 // The peer adapters of the criterion benches, compiled here too rather than copied.
@@ -42,6 +46,9 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "frame" => frame::run(opts.quick, opts.overlays_off),
         "culling" => culling::run(opts.quick),
         "picking" => picking::run(opts.quick),
+        "geometry" => geometry::run(opts.quick),
+        "structures" => structures::run(opts.quick),
+        "triangles" => triangles::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }
