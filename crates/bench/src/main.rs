@@ -47,8 +47,17 @@ pub struct Options {
 }
 
 const SUITES: [&str; 11] = [
-    "stress", "build", "update", "rays", "preview", "frame", "culling", "picking", "geometry",
-    "structures", "triangles",
+    "stress",
+    "build",
+    "update",
+    "rays",
+    "preview",
+    "frame",
+    "culling",
+    "picking",
+    "geometry",
+    "structures",
+    "triangles",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \

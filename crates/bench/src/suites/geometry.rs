@@ -109,11 +109,7 @@ fn sphere_f64(r: &Ray, s: &Sphere) -> Option<f64> {
         return None;
     }
     let (t0, t1) = ((-b - disc.sqrt()) / a, (-b + disc.sqrt()) / a);
-    if t1 < 0.0 {
-        None
-    } else {
-        Some(t0.max(0.0))
-    }
+    if t1 < 0.0 { None } else { Some(t0.max(0.0)) }
 }
 
 /// Möller and Trumbore's test in f64: the reference distance of a triangle hit.
@@ -177,7 +173,11 @@ fn ray_rows(rng: &mut Rng, runs: usize, reps: usize) -> Vec<Row> {
                 .filter(|(r, b)| r.intersect_aabb(b).is_some())
                 .count()
         });
-        let err = mean_relative_error(&pairs, |(r, b)| r.intersect_aabb(b), |(r, b)| slab_f64(r, b));
+        let err = mean_relative_error(
+            &pairs,
+            |(r, b)| r.intersect_aabb(b),
+            |(r, b)| slab_f64(r, b),
+        );
         rows.push(Row {
             name,
             ns,

@@ -243,11 +243,18 @@ fn measure<I: DynamicIndex + SpatialQuery>(
         c.name,
         "",
         time,
-        ("ray time after the frames / fresh build", Some(moved_t / fresh_t)),
+        (
+            "ray time after the frames / fresh build",
+            Some(moved_t / fresh_t),
+        ),
     ));
-    report
-        .points
-        .push(point(&scene, c.name, "", time, ("memory MB", Some(memory_mb))));
+    report.points.push(point(
+        &scene,
+        c.name,
+        "",
+        time,
+        ("memory MB", Some(memory_mb)),
+    ));
     Figures {
         name: c.name,
         frame,
@@ -303,6 +310,9 @@ fn shape_notes(w: &Workload, report: &mut Report) {
     }
 }
 
+/// Reads one measurement of a contender's figures.
+type Pick = fn(&Figures) -> Option<f64>;
+
 /// A Markdown table of `cols` against the BVH (`bvh`), one row per measurement, the ratios
 /// `contender / BVH` last (below 1 the contender is faster).
 fn table(title: &str, bvh: &Figures, cols: [&Figures; 2]) -> Vec<String> {
@@ -311,7 +321,7 @@ fn table(title: &str, bvh: &Figures, cols: [&Figures; 2]) -> Vec<String> {
         (Some(x), Some(y)) => format!("{:.2}x", x / y),
         _ => "-".into(),
     };
-    let rows: [(&str, fn(&Figures) -> Option<f64>); 4] = [
+    let rows: [(&str, Pick); 4] = [
         ("update + upkeep per frame", |f| Some(f.frame)),
         ("frustum, 5% of boxes", |f| f.frustum),
         ("1,000 box queries", |f| f.boxes),
@@ -346,6 +356,11 @@ fn table(title: &str, bvh: &Figures, cols: [&Figures; 2]) -> Vec<String> {
     ));
     out.push(String::new());
     out
+}
+
+/// An empty octree of looseness `k`.
+fn with_looseness(k: f32) -> LooseOctree {
+    LooseOctree::with_config(OctreeConfig::default().with_looseness(k)).expect("a valid looseness")
 }
 
 /// Runs this part of the suite into `report`.
@@ -417,14 +432,14 @@ pub fn run(quick: bool, report: &mut Report, progress: &mut Progress) {
         },
         queries: true,
     };
-    let with_looseness = |k: f32| {
-        LooseOctree::with_config(OctreeConfig::default().with_looseness(k))
-            .expect("a valid looseness")
-    };
     progress.step("octree k = 2");
     let k2 = measure(&octree("octree k = 2", || with_looseness(2.0)), &w, report);
     progress.step("octree k = 1.5");
-    let k15 = measure(&octree("octree k = 1.5", || with_looseness(1.5)), &w, report);
+    let k15 = measure(
+        &octree("octree k = 1.5", || with_looseness(1.5)),
+        &w,
+        report,
+    );
     let grid = |name, make: fn() -> UniformGrid| Contender {
         name,
         make,

@@ -216,7 +216,9 @@ fn check(
             ControlFlow::Continue(())
         });
         let p = q.center();
-        let theirs = rt.nearest_neighbor_with_distance_2([p.x, p.y]).map(|(_, d2)| d2);
+        let theirs = rt
+            .nearest_neighbor_with_distance_2([p.x, p.y])
+            .map(|(_, d2)| d2);
         wrong_nearest += usize::from(Some(nearest_ours(tree, boxes, p)) != theirs);
     }
     let structure = format!("Quadtree {label}");
@@ -305,7 +307,13 @@ fn bench_scene(kind: Scene, n: usize, s: &Settings, report: &mut Report) -> Figu
     let box_query = contest(
         reps,
         q_scale,
-        || secs(|| qs.iter().map(|q| count_ours(&tree, &boxes, q)).sum::<usize>()),
+        || {
+            secs(|| {
+                qs.iter()
+                    .map(|q| count_ours(&tree, &boxes, q))
+                    .sum::<usize>()
+            })
+        },
         || {
             secs(|| {
                 (envs.iter())
@@ -317,7 +325,13 @@ fn bench_scene(kind: Scene, n: usize, s: &Settings, report: &mut Report) -> Figu
     let nearest = contest(
         reps,
         q_scale,
-        || secs(|| (centres.iter()).map(|&p| nearest_ours(&tree, &boxes, p)).sum::<f32>()),
+        || {
+            secs(|| {
+                (centres.iter())
+                    .map(|&p| nearest_ours(&tree, &boxes, p))
+                    .sum::<f32>()
+            })
+        },
         || {
             secs(|| {
                 (centres.iter())

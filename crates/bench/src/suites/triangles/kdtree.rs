@@ -126,11 +126,7 @@ fn naive_check(report: &mut Report) {
 
 /// The builds' table and the size table; returns the largest scene and its sweep tree with
 /// the tree's build time.
-fn builds(
-    s: &Settings,
-    report: &mut Report,
-    progress: &mut Progress,
-) -> (TestMesh, KdTree, f64) {
+fn builds(s: &Settings, report: &mut Report, progress: &mut Progress) -> (TestMesh, KdTree, f64) {
     let mut build_rows = vec![
         "| triangles | event sweep ms | ns / (N log2 N) | sort each level ms | ns / (N log2 N) | \
          sort / sweep |"
@@ -179,13 +175,16 @@ fn builds(
         ));
         last = Some((m, sweep, sweep_s));
     }
-    report
-        .markdown
-        .extend(["kd-tree builds (triangle scene, one thread):".into(), String::new()]);
+    report.markdown.extend([
+        "kd-tree builds (triangle scene, one thread):".into(),
+        String::new(),
+    ]);
     report.markdown.extend(build_rows);
-    report
-        .markdown
-        .extend([String::new(), "kd-tree sizes (event sweep):".into(), String::new()]);
+    report.markdown.extend([
+        String::new(),
+        "kd-tree sizes (event sweep):".into(),
+        String::new(),
+    ]);
     report.markdown.extend(size_rows);
     report.markdown.push(String::new());
     last.expect("at least one build size")
@@ -303,8 +302,10 @@ fn rays_on(
             "| {mesh_name} | {} | {:.1} | {} |",
             con.name,
             con.build_seconds * 1e3,
-            con.bytes
-                .map_or("n/a".into(), |b| format!("{:.1}", b as f64 / triangles as f64))
+            con.bytes.map_or("n/a".into(), |b| format!(
+                "{:.1}",
+                b as f64 / triangles as f64
+            ))
         ));
     }
     let bounds = Aabb::from_points(m.vertices.iter().copied());
@@ -343,9 +344,13 @@ fn rays_on(
                     ("ns per ray", Some(secs * 1e9 / rays.len() as f64)),
                 ));
                 let bytes = con.bytes.map(|b| b as f64 / triangles as f64);
-                report
-                    .points
-                    .push(point(&scene, con.name, "", time, ("bytes per triangle", bytes)));
+                report.points.push(point(
+                    &scene,
+                    con.name,
+                    "",
+                    time,
+                    ("bytes per triangle", bytes),
+                ));
                 rays.len() as f64 / secs
             })
             .collect();
@@ -367,7 +372,13 @@ pub fn run(s: &Settings, report: &mut Report, progress: &mut Progress) {
     progress.step("kd-tree rays on the bunny");
     let (t, kd) = timed_build(s.reps, || build_kd(&bunny, KdBuild::EventSweep));
     let cons = contenders(&bunny, kd, t);
-    table.extend(rays_on(("bunny", &bunny), &cons, s, report, &mut build_rows));
+    table.extend(rays_on(
+        ("bunny", &bunny),
+        &cons,
+        s,
+        report,
+        &mut build_rows,
+    ));
     drop(cons);
     progress.step("kd-tree rays on the scene");
     let name = format!("scene {}", big.indices.len() / 3);
