@@ -16,7 +16,11 @@
 //! culling against bevy_light's; a missing caster is a failure), `picking` (per-ray time of
 //! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure), `sync` (the
 //! trees' upkeep per frame for each index choice) and `scenery` (streaming static scenery in
-//! and out against plain Bevy; an entity lost or kept is a failure). `all` runs
+//! and out against plain Bevy; an entity lost or kept is a failure). More suites of the core
+//! crate: `geometry` (the cost of one geometric test, against its f64 error), `structures`
+//! (the loose octree and the uniform grid against the dynamic BVH, the quadtree against
+//! rstar) and `triangles` (the kd-tree against the mesh BVH and kdtree-ray, the BSP tree).
+//! `all` runs
 //! every suite. Each prints a table, and optionally writes JSON and draws SVG plots of time
 //! against error or quality with the Pareto front marked. `--quick` shrinks every suite so
 //! that `all --quick` is a fast check (CI runs it for the failure counts).
@@ -67,12 +71,15 @@ const SUITES: &[&str] = &[
     "sync",
     "scenery",
     "walks",
+    "geometry",
+    "structures",
+    "triangles",
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
     [--overlays-off] [--panel-closed]\n\
     SUITE: stress | build | update | rays | meshes | preview | frame | culling | lights | picking | sync |\n\
-    scenery | walks | all\n\
+    scenery | walks | geometry | structures | triangles | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
     --panel-closed: the frame suite also times the panel plugin with the panel closed";
 

@@ -2,9 +2,10 @@
 //! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
 //! benches), and the plugin tests' headless app, included from `tests/common`.
 //!
-//! `stress`, `build`, `update`, `rays`, `meshes`, `walks` and `preview` measure the core
-//! crate alone; `frame`, `culling`, `lights`, `picking`, `sync` and `scenery` run the plugin in
-//! headless Bevy apps, against Bevy's own systems where Bevy has them.
+//! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
+//! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
+//! `picking`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
+//! systems where Bevy has them.
 
 pub mod build;
 pub mod culling;
@@ -12,6 +13,7 @@ pub mod frame;
 #[cfg(feature = "light_culling")]
 pub mod lights;
 pub mod meshes;
+pub mod geometry;
 pub mod picking;
 pub mod preview;
 pub mod rays;
@@ -19,7 +21,9 @@ pub mod rounds;
 pub mod scenery;
 pub mod static_builds;
 pub mod stress;
+pub mod structures;
 pub mod sync;
+pub mod triangles;
 pub mod update;
 pub mod walks;
 
@@ -57,6 +61,9 @@ pub fn run(name: &str, opts: &Options) -> Report {
         #[cfg(feature = "light_culling")]
         "lights" => lights::run(opts.quick),
         "walks" => walks::run(opts.quick),
+        "geometry" => geometry::run(opts.quick),
+        "structures" => structures::run(opts.quick),
+        "triangles" => triangles::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
 }
