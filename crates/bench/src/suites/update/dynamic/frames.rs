@@ -272,7 +272,7 @@ pub fn run(s: &mut Section, boxes: &[Aabb], frame_count: usize, rounds: usize) {
         format!("SAH after {frame_count} frames of 10% moving, over a fresh build's (tight boxes / our fat boxes)"),
         format!("{sah:.3}x / {:.3}x", cost / fresh_fat),
         format!("obvhs `resize_node` {ob_cost:.3}x (tight)"),
-        Row::target(sah, Some((1.15, "1.15x"))),
+        Row::target(cost / fresh_fat, Some((1.15, "1.15x (fat boxes)"))),
     ));
     s.row(Row::text(
         "optimiser per frame, mean / max".into(),
