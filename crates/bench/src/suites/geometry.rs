@@ -9,8 +9,6 @@
 //! the same test done in f64 (the slab test widens its interval on purpose, so its entry
 //! distance is a little short); for the frustum, the share of the volumes a test keeps (not
 //! outside), where a sphere bounding a box keeps more than the box does.
-//!
-//! Replaces the criterion bench `crates/accel/benches/geometry.rs`.
 
 use super::point;
 use crate::json::{Point, Report};

@@ -5,7 +5,7 @@
 //! every vertex moved against an obvhs BVH2 refit doing the same work (new triangles, leaf
 //! boxes, `refit_all`). On the 1M-triangle bunny-copies scene, the spatial-split build
 //! (`MeshBvh::with_spatial_splits`) against `MeshBvh::new` and, when `TINYBVH_PEER` names the
-//! binary that `crates/accel/benches/peers/tinybvh.sh` builds, tinybvh's `BuildHQ` with its
+//! binary that `crates/bench/peers/tinybvh/tinybvh.sh` builds, tinybvh's `BuildHQ` with its
 //! `BVH8_CPU` conversion; and each tree's memory per triangle. Every contender runs once per
 //! round; times are medians over rounds, speed-ups medians of per-round ratios. Builds rate
 //! by our SAH cost (`SahCosts::default()`), refits by the refitted tree's.
@@ -328,7 +328,7 @@ fn spatial_splits(quick: bool, progress: &mut Progress) -> Part {
             String::new(),
             vec![
                 "tinybvh: TINYBVH_PEER is unset, so its BuildHQ is skipped (set it to the path \
-                 crates/accel/benches/peers/tinybvh.sh prints)"
+                 crates/bench/peers/tinybvh/tinybvh.sh prints)"
                     .to_string(),
             ],
         ),

@@ -1,6 +1,6 @@
 //! The suites, one file (or folder) each, and what they share: the point constructor, the
-//! peers' adapters, included from `crates/accel/benches/common` (one copy, shared with the
-//! benches), and the plugin tests' headless app, included from `tests/common`.
+//! scenes and peers' adapters of `common`, and the plugin tests' headless app, included from
+//! `tests/common`.
 //!
 //! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
 //! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
@@ -10,10 +10,10 @@
 pub mod build;
 pub mod culling;
 pub mod frame;
+pub mod geometry;
 #[cfg(feature = "light_culling")]
 pub mod lights;
 pub mod meshes;
-pub mod geometry;
 pub mod picking;
 pub mod preview;
 pub mod rays;
@@ -27,8 +27,6 @@ pub mod triangles;
 pub mod update;
 pub mod walks;
 
-// The peer adapters of the criterion benches, compiled here too rather than copied.
-#[path = "../../../accel/benches/common/mod.rs"]
 pub mod common;
 
 // The plugin tests' headless app and grid, compiled here too rather than copied. Its parts for

@@ -2,16 +2,11 @@
 //! single-threaded builds of `accel::Bvh` over the 1M triangles (a triangle build's time
 //! includes making the triangle boxes, as obvhs' `*_from_tris` does) and over the 100k entity
 //! boxes, round by round against obvhs 0.3.3's BVH2 (and, when `TINYBVH_PEER` names the binary
-//! that `crates/accel/benches/peers/tinybvh.sh` builds, tinybvh's single-threaded
+//! that `crates/bench/peers/tinybvh/tinybvh.sh` builds, tinybvh's single-threaded
 //! `BVH::BuildAVX`); the plugin's static entity tree (its build under the plugin's rules and
 //! its 16-wide ray copy with ids inlined); and a frustum query over 1M entity boxes against a
 //! flat loop. SAH costs are ours for every tree (`SahCosts::default()`: traversal 2,
 //! intersection 1, over the root's area), the peers' binary trees included.
-//!
-//! Replaces `benches/bvh_build.rs` (criterion builds against obvhs and the `bvh` crate),
-//! `examples/tri_build_timing.rs` (the triangle builds, tinybvh included),
-//! `examples/entity_tree_timing.rs` (the plugin's static tree) and the frustum group of
-//! `benches/bvh_rays.rs`.
 
 use super::common::peers::{self, BvhCrateTree, BvhShape, ObvhsBvh2};
 use super::common::tinybvh::TinyBvh;
@@ -124,7 +119,7 @@ fn triangles(quick: bool, progress: &mut Progress) -> Part {
         }
         None => notes.push(
             "tinybvh: TINYBVH_PEER is unset, so its BuildAVX column is skipped (set it to the \
-             path crates/accel/benches/peers/tinybvh.sh prints)"
+             path crates/bench/peers/tinybvh/tinybvh.sh prints)"
                 .into(),
         ),
     }

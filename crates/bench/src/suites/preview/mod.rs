@@ -1,8 +1,7 @@
 //! The ray-traced preview: run time against image error for each top-level index the plugin
 //! can trace (the two-level `InstancedScene` built for the preview, and the movers' indexes
 //! as `IndexedPreviewScene`), the shaded frame on one and on two threads, and the tracer's
-//! overhead over casting the same rays directly. Absorbs the former
-//! `crates/accel/benches/preview.rs`.
+//! overhead over casting the same rays directly.
 //!
 //! - Ambient occlusion, progressive, on one thread: RMSE against a reference of many more
 //!   samples (another seed) as samples, and time, add up.

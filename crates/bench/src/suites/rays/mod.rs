@@ -4,7 +4,7 @@
 //! `MeshBvh::new`, the build over whole triangles), as a two-level `InstancedScene`, as box
 //! trees with the watertight test in the callback, and through the peers obvhs 0.3.3 (CWBVH,
 //! BVH2), bvh 0.13 and, when `TINYBVH_PEER` names the binary that
-//! `crates/accel/benches/peers/tinybvh.sh` builds, tinybvh's `BVH8_CPU` over its binned build
+//! `crates/bench/peers/tinybvh/tinybvh.sh` builds, tinybvh's `BVH8_CPU` over its binned build
 //! and over its SBVH. Every contender traces every ray set once per round, and each figure is
 //! the median over rounds, beside the median of the per-round ratios to obvhs' CWBVH. The
 //! error is the share of checked rays whose answer differs from `BruteForceMesh` (hit or
@@ -130,7 +130,7 @@ pub fn run(quick: bool) -> Report {
         None => {
             notes.push(
                 "tinybvh: TINYBVH_PEER is unset, so its columns are skipped (set it to the \
-                 path crates/accel/benches/peers/tinybvh.sh prints)"
+                 path crates/bench/peers/tinybvh/tinybvh.sh prints)"
                     .into(),
             );
             Vec::new()

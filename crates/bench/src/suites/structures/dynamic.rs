@@ -17,10 +17,10 @@
 //! and timed against a fresh build of the same kind (the plots' quality: what the upkeep
 //! left of the fresh structure's speed).
 
-use super::dynamic_workload::{built_tree, scene};
 use super::{check_row, secs};
 use crate::json::Report;
 use crate::progress::Progress;
+use crate::suites::common::dynamic_workload::{built_tree, scene};
 use crate::suites::common::frustum_selecting;
 use crate::suites::{incoherent_rays, point};
 use crate::timing::best_of;

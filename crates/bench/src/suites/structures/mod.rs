@@ -2,18 +2,9 @@
 //! against the dynamic BVH on one moving workload (`dynamic.rs`), and the quadtree against
 //! `rstar`'s R*-tree on flat boxes (`quadtree.rs`). Every structure's answers are checked
 //! against its peer's in the same run; a difference is a miss in the report's stress rows.
-//!
-//! Replaces the criterion benches `crates/accel/benches/octree.rs` and
-//! `crates/accel/benches/grid.rs` (one run here measures both against the same BVH) and the
-//! timing program `crates/accel/benches/quadtree_rstar.rs`.
 
 mod dynamic;
 mod quadtree;
-
-// The workload the dynamic BVH bench and the parry peer share, compiled here too rather than
-// copied.
-#[path = "../../../../accel/benches/common/dynamic_workload.rs"]
-mod dynamic_workload;
 
 use crate::json::{Report, StressRow};
 use crate::progress::Progress;

@@ -1,8 +1,5 @@
 //! The triangle structures besides the BVHs: the SAH kd-tree against our mesh BVH and the
 //! `kdtree-ray` crate (`kdtree.rs`), and the BSP tree against the mesh BVH (`bsp.rs`).
-//!
-//! Replaces the timing program `crates/accel/benches/kdtree.rs` and the criterion bench
-//! `crates/accel/benches/bsp.rs`.
 
 mod bsp;
 mod kdtree;

@@ -4,23 +4,16 @@
 //! and refits ([`edits`]), then busy frames, the quality they leave, the empty frame and the
 //! ray snapshot ([`frames`]). Its Markdown table is BENCHMARKS.md's "Dynamic BVH" table.
 //!
-//! This replaces the criterion bench `crates/accel/benches/dynamic_bvh.rs` (edits, moves and
-//! the 1,000-frame quality run, against obvhs) and `crates/accel/examples/dynamic_timing.rs`
-//! (the refit alone, the 10%-moved frame's parts, the ray snapshot, the memory floor). The
-//! parry3d peer stays a package of its own (`crates/accel/peers/parry`): its dependencies
+//! The parry3d peer is a package of its own (`crates/bench/peers/parry`): its dependencies
 //! would add crates and versions to the workspace's lock file.
 
 mod edits;
 mod frames;
 
-// The workload the parry peer package runs too, compiled here rather than copied.
-#[path = "../../../../accel/benches/common/dynamic_workload.rs"]
-mod dynamic_workload;
-
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
+use crate::suites::common::dynamic_workload::{built_tree, scene};
 use accel::Aabb;
-use dynamic_workload::{built_tree, scene};
 
 /// Our box as obvhs's.
 fn to_obvhs(b: &Aabb) -> obvhs::aabb::Aabb {

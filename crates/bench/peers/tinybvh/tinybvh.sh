@@ -3,7 +3,7 @@
 # binary, for the accel-bench suites that time tinybvh in the same rounds as ours (`build`,
 # `rays`, `meshes`):
 #
-#   TINYBVH_PEER=$(crates/accel/benches/peers/tinybvh.sh) cargo run -p accel-bench -- rays
+#   TINYBVH_PEER=$(crates/bench/peers/tinybvh/tinybvh.sh) cargo run -p accel-bench -- rays
 #
 # tinybvh is a single C++ header. It is not copied into this repository: cargo fetches the
 # `tinybvh-rs` crate, which ships tiny_bvh.h, into its registry, and g++ compiles against it

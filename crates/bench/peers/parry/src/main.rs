@@ -1,5 +1,5 @@
 //! accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of the bench tool's
-//! dynamic BVH rows (`crates/accel/benches/common/dynamic_workload.rs`): 100,000 boxes,
+//! dynamic BVH rows (`crates/bench/src/suites/common/dynamic_workload.rs`): 100,000 boxes,
 //! centres uniform in [-200, 200]^3, half extents 0.1-1.0, one thread, both trees in the same
 //! process, each figure the best of several runs.
 //!
@@ -12,7 +12,7 @@
 //!   refits, optimises within its budget and rebuilds when the quality estimate says so;
 //!   parry: `refit` then `optimize_incremental`), mean over 200 frames.
 //!
-//! `cargo run --release --manifest-path crates/accel/peers/parry/Cargo.toml`
+//! `cargo run --release --manifest-path crates/bench/peers/parry/Cargo.toml`
 
 use accel::Aabb;
 use glam::Vec3A;
@@ -23,7 +23,7 @@ use std::time::Instant;
 
 const N: usize = 100_000;
 
-#[path = "../../../benches/common/dynamic_workload.rs"]
+#[path = "../../../src/suites/common/dynamic_workload.rs"]
 mod dynamic_workload;
 use accel_testkit::Rng;
 use dynamic_workload::{built_tree as ours, scene};

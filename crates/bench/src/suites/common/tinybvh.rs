@@ -1,7 +1,7 @@
 //! tinybvh (C++) as a peer in the same rounds as ours: a child process built from
-//! `benches/peers/tinybvh_peer.cpp`, driven one command per line over its stdin and stdout.
+//! `crates/bench/peers/tinybvh/tinybvh_peer.cpp`, driven one command per line over its stdin and stdout.
 //! accel-bench's `build`, `rays` and `meshes` suites run it only when the environment variable
-//! `TINYBVH_PEER` names the binary that `benches/peers/tinybvh.sh` prints; without it they
+//! `TINYBVH_PEER` names the binary that `crates/bench/peers/tinybvh/tinybvh.sh` prints; without it they
 //! time the Rust contenders alone and say so in a note.
 //!
 //! A child process rather than a linked library: tinybvh is one C++ header, and linking it

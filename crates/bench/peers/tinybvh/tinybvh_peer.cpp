@@ -1,5 +1,5 @@
 // tinybvh as a benchmark peer, driven line by line over stdin/stdout by accel-bench
-// (`benches/common/tinybvh.rs`), so that its timings are taken in the same rounds as ours.
+// (accel-bench's `src/suites/common/tinybvh.rs`), so that its timings are taken in the same rounds as ours.
 // This file is ours; tinybvh itself is never copied into the repository: `tinybvh.sh`
 // beside it takes tiny_bvh.h from the `tinybvh-rs` crate through cargo and compiles this.
 //

@@ -1,9 +1,10 @@
-//! What the BVH benchmarks share besides `accel_testkit`'s scenes (entity boxes, the
+//! What the suites share besides `accel_testkit`'s scenes (entity boxes, the
 //! ~1M-triangle scene of bunny copies): incoherent rays and a camera frustum, both
 //! deterministic; plus the adapters that let our own statistics (SAH cost, memory) be computed
 //! on the peer crates' trees.
 #![allow(dead_code)]
 
+pub mod dynamic_workload;
 pub mod peers;
 pub mod tinybvh;
 
