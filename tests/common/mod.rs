@@ -18,13 +18,19 @@ use std::any::TypeId;
 /// even where a scene sets its `Aabb`s by hand. Not finished: add the plugins under test,
 /// then call `App::finish`.
 pub fn headless_app() -> App {
+    let mut app = plain_bevy_app();
+    app.add_plugins(AccelPlugin::default());
+    app
+}
+
+/// The same app without bevy_accel: the plain Bevy side of a comparison.
+pub fn plain_bevy_app() -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
         AssetPlugin::default(),
         TransformPlugin,
         VisibilityPlugin,
-        AccelPlugin::default(),
     ))
     .init_asset::<Mesh>()
     .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();

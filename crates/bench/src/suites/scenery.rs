@@ -19,13 +19,14 @@
 //! tracks exactly the live boxes (an entity lost or kept after despawn is a leak in the
 //! failure rows).
 
+use super::plugin_common::plain_bevy_app;
 use super::point;
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
 use accel_testkit::Rng;
 use bevy::camera::primitives::{Aabb, Frustum};
-use bevy::camera::visibility::{VisibilityClass, VisibilityPlugin};
+use bevy::camera::visibility::VisibilityClass;
 use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
@@ -89,15 +90,7 @@ struct Level {
 
 impl Level {
     fn new(contender: Contender, n: usize) -> Self {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            AssetPlugin::default(),
-            TransformPlugin,
-            VisibilityPlugin,
-        ))
-        .init_asset::<Mesh>()
-        .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+        let mut app = plain_bevy_app();
         let static_rebuild_in_frame_up_to = match contender {
             Contender::AccelInFrame => usize::MAX,
             _ => AccelSettings::default().static_rebuild_in_frame_up_to,

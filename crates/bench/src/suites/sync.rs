@@ -124,9 +124,12 @@ fn measure(s: &mut SyncApp, moving: bool, sizes: &Sizes) -> Upkeep {
             continue;
         }
         let st = s.app.world().resource::<AccelStats>();
+        // The report is the last maintenance's: a frame whose movers all stayed inside their
+        // fat leaves ran none, and its optimiser time is 0, not an earlier frame's.
         let optimise = st
             .bvh
             .and_then(|b| b.last_maintain)
+            .filter(|_| st.updated > 0)
             .map_or(Duration::ZERO, |m| m.optimize.elapsed);
         let row = [
             ms(st.sync_time),

@@ -1,9 +1,10 @@
 //! The frame suite's apps: the scene of wobbling boxes, the cameras, the pointer ray, and one
 //! app per contender built over the very same scene.
 
+use crate::suites::plugin_common::plain_bevy_app;
 use accel_testkit::Rng;
 use bevy::camera::primitives::{Aabb, Frustum};
-use bevy::camera::visibility::{VisibilityClass, VisibilityPlugin};
+use bevy::camera::visibility::VisibilityClass;
 use bevy::math::primitives::ViewFrustum;
 use bevy::picking::mesh_picking::ray_cast::MeshRayCastSettings;
 use bevy::prelude::*;
@@ -169,18 +170,10 @@ fn cast_pointer(mut ray_cast: AccelRayCast, pointer: Res<PointerRay>) {
 /// hold the same world.
 pub fn build_app(contender: Contender, scene: Scene) -> App {
     let n = scene.entities;
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        TransformPlugin,
-        VisibilityPlugin,
-    ))
-    .init_asset::<Mesh>()
-    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
-    .init_resource::<FrameCount>()
-    .add_systems(First, count_frame)
-    .add_systems(Update, wobble);
+    let mut app = plain_bevy_app();
+    app.init_resource::<FrameCount>()
+        .add_systems(First, count_frame)
+        .add_systems(Update, wobble);
     if let Contender::AccelGizmos(_) | Contender::AccelOverlaysOff(_) = contender {
         app.add_plugins(bevy::gizmos::GizmoPlugin);
     }

@@ -10,9 +10,6 @@
 //! error is the share of checked rays whose answer differs from `BruteForceMesh` (hit or
 //! miss, or the distance by more than 1e-4 relative); differences beyond what two triangle
 //! tests may disagree on are stress misses.
-//!
-//! Replaces `examples/ray_timing.rs` (the rounds, tinybvh included) and the ray group of
-//! `benches/bvh_rays.rs` (incoherent rays against obvhs and the `bvh` crate).
 
 mod sets;
 mod tracers;
