@@ -54,6 +54,9 @@ pub struct Options {
     /// The frame suite also runs the BVH app with bevy_egui, and with bevy_egui and the
     /// panel plugin, the panel closed.
     pub panel_closed: bool,
+    /// Threads of Bevy's compute pool for the plugin suites (Bevy's default otherwise: what
+    /// is left of the cores after one each for I/O and async work, at least one).
+    pub compute_threads: Option<usize>,
 }
 
 const SUITES: &[&str] = &[
@@ -77,11 +80,12 @@ const SUITES: &[&str] = &[
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
-    [--overlays-off] [--panel-closed]\n\
+    [--overlays-off] [--panel-closed] [--compute-threads N]\n\
     SUITE: stress | build | update | rays | meshes | preview | frame | culling | lights | picking | sync |\n\
     scenery | walks | geometry | structures | triangles | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
-    --panel-closed: the frame suite also times the panel plugin with the panel closed";
+    --panel-closed: the frame suite also times the panel plugin with the panel closed\n\
+    --compute-threads N: Bevy's compute pool gets N threads in the plugin suites";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
     let mut opts = Options {
@@ -91,6 +95,7 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
         plots: None,
         overlays_off: false,
         panel_closed: false,
+        compute_threads: None,
     };
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
@@ -98,6 +103,13 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
             "--quick" => opts.quick = true,
             "--overlays-off" => opts.overlays_off = true,
             "--panel-closed" => opts.panel_closed = true,
+            "--compute-threads" => {
+                let n = args.next().ok_or("--compute-threads needs a count")?;
+                let n = n.parse().ok().filter(|&n: &usize| n >= 1).ok_or(format!(
+                    "--compute-threads needs a count of 1 or more, not {n:?}"
+                ))?;
+                opts.compute_threads = Some(n);
+            }
             "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
             "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),
             "-h" | "--help" => return Err(String::new()),
@@ -123,6 +135,13 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(n) = opts.compute_threads {
+        // Bevy's pools are made once per process, by the first app unless made before it.
+        let mut pools = bevy::app::TaskPoolOptions::default();
+        pools.compute.min_threads = n;
+        pools.compute.max_threads = n;
+        pools.create_default_pools();
+    }
     let started = std::time::Instant::now();
     let mut reports = Vec::new();
     for suite in &opts.suites {
