@@ -1,7 +1,7 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
 //! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]
-//! [--overlays-off] [--panel-closed]`
+//! [--overlays-off] [--panel-closed] [--compute-threads N]`
 //!
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
