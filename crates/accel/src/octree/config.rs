@@ -44,6 +44,19 @@ pub struct OctreeConfig {
     /// Half the side of the cube the root starts as. Finite, positive, at most
     /// [`MAX_ROOT_HALF_SIZE`]. Objects outside it are not lost: the root grows to take them.
     pub world_half_size: f32,
+    /// Entries per deepest cell the tree's depth aims at: it goes no deeper than the first
+    /// level whose cells, `2^axes` times more at each level, would hold the entries at this
+    /// many each, however small they are (and never past `max_depth`). 0, the default: depth
+    /// follows from size alone, up to `max_depth`.
+    ///
+    /// Why: with depth from size alone, small objects each end at an octant of their own a
+    /// dozen levels down, so a box query walks a chain of octants per object found, where an
+    /// R-tree reads one node per few. The limit keeps several objects per deepest octant
+    /// instead, and rises as the tree fills: box queries, updates and frusta get cheaper, but
+    /// rays slower, since a ray tests a shared octant's objects in no order (BENCHMARKS.md,
+    /// "Quadtree against rstar" and "Loose octree"). So it is off by default, for the rays
+    /// of picking and the preview.
+    pub target_occupancy: u32,
 }
 
 impl Default for OctreeConfig {
@@ -53,6 +66,7 @@ impl Default for OctreeConfig {
             max_depth: 12,
             world_center: Vec3A::ZERO,
             world_half_size: 1024.0,
+            target_occupancy: 0,
         }
     }
 }

@@ -4,7 +4,7 @@
 use super::cells::{NONE, box_center, child_center, child_index, loose_contains};
 use super::config::MAX_ROOT_HALF_SIZE;
 use super::handle::OctreeHandle;
-use super::tree::{LEVEL_OFFSET, LooseTree};
+use super::tree::{LEVEL_OFFSET, LooseTree, population_depth};
 use crate::Aabb;
 use crate::query::IndexError;
 use glam::Vec3A;
@@ -24,6 +24,8 @@ impl<const AXES: usize> LooseTree<AXES> {
         if !self.slots.has_room() || !self.arena_has_room() {
             return Err(IndexError::CapacityExceeded);
         }
+        self.spread = self.spread.union(&Aabb::from_point(box_center(&bounds)));
+        self.raise_depth_limit(self.len + 1);
         let start = self.root_holding(&bounds);
         let target = self.descend(start, &bounds);
         let handle = self.slots.allocate(target, 0);
@@ -98,6 +100,40 @@ impl<const AXES: usize> LooseTree<AXES> {
         self.len = 0;
         self.dirty.clear();
         self.level_counts.fill(0);
+        self.spread = Aabb::EMPTY;
+        self.depth_limit = population_depth::<AXES>(&self.config, 0, &self.spread);
+    }
+
+    /// Lets entries go deeper once `len` entries would crowd the deepest cells allowed (see
+    /// [`OctreeConfig::target_occupancy`]), and moves down those at the old limit that now
+    /// belong deeper. The limit grows `2^AXES`-fold in entries per level, so the moves cost
+    /// O(1) per insertion, amortised.
+    fn raise_depth_limit(&mut self, len: usize) {
+        let wanted = population_depth::<AXES>(&self.config, len, &self.spread);
+        if wanted <= self.depth_limit {
+            return;
+        }
+        let old = self.depth_limit;
+        self.depth_limit = wanted;
+        let crowded: Vec<(OctreeHandle, Aabb)> = (0..self.slots.slots.len() as u32)
+            .filter_map(|slot| {
+                let s = self.slots.slots[slot as usize];
+                if s.octant == NONE || self.arena.get(s.octant).level != old {
+                    return None;
+                }
+                let handle = OctreeHandle {
+                    slot,
+                    generation: s.generation,
+                };
+                let bounds = self.arena.get(s.octant).entries[s.position as usize].bounds;
+                Some((handle, bounds))
+            })
+            .collect();
+        for (handle, bounds) in crowded {
+            // Its box is unchanged: the update moves it only if it now belongs deeper.
+            let moved = self.update(handle, bounds);
+            debug_assert!(moved.is_ok(), "a live entry's own box: {moved:?}");
+        }
     }
 
     /// Whether the loose cell of octant `o` holds `b`.
@@ -133,7 +169,7 @@ impl<const AXES: usize> LooseTree<AXES> {
     #[inline]
     pub(super) fn wants_deeper(&self, o: u32, b: &Aabb) -> bool {
         let octant = self.arena.get(o);
-        if octant.level >= i16::from(self.config.max_depth) {
+        if octant.level >= self.depth_limit {
             return false;
         }
         let (center, half) = self.child_cell(o, child_index::<AXES>(octant.center, box_center(b)));
@@ -244,7 +280,7 @@ impl<const AXES: usize> LooseTree<AXES> {
     /// at the deepest cell that holds the box.
     fn descend(&mut self, start: u32, b: &Aabb) -> u32 {
         let point = box_center(b);
-        let (looseness, max_level) = (self.config.looseness, i16::from(self.config.max_depth));
+        let (looseness, max_level) = (self.config.looseness, self.depth_limit);
         let mut o = start;
         'octants: loop {
             let (level, index, existing) = {

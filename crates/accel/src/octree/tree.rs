@@ -35,6 +35,45 @@ pub struct LooseTree<const AXES: usize> {
     pub(super) level_counts: Vec<usize>,
     /// Bytes held by the octants' entry arrays, kept as they grow.
     pub(super) entry_bytes: usize,
+    /// The deepest level entries go to now: `max_depth`, or less while the tree holds few
+    /// entries (see [`OctreeConfig::target_occupancy`]). It only rises, until `clear`.
+    pub(super) depth_limit: i16,
+    /// The union of the inserted entries' centres since the tree was last empty: the part of
+    /// the world the entries spread over, which the depth limit counts its levels from.
+    pub(super) spread: Aabb,
+}
+
+/// The depth limit for `len` entries whose centres spread over `spread`: the first level at
+/// which the cells over the spread hold them `target_occupancy` at a time, at most
+/// `max_depth`.
+///
+/// Why count from the spread, not the world cube: entries gathered in a small part of a
+/// large world would otherwise share a few huge cells.
+pub(super) fn population_depth<const AXES: usize>(
+    config: &OctreeConfig,
+    len: usize,
+    spread: &Aabb,
+) -> i16 {
+    let max = i16::from(config.max_depth);
+    if config.target_occupancy == 0 {
+        return max;
+    }
+    // Levels from the world cube down to the first cell as large as the spread.
+    let widest = (0..AXES)
+        .map(|axis| 0.5 * (spread.max[axis] - spread.min[axis]))
+        .fold(0.0f32, f32::max);
+    let ratio = config.world_half_size / widest;
+    let to_spread = if ratio.is_finite() && ratio > 1.0 {
+        (ratio.log2().floor() as i16).min(max)
+    } else {
+        0
+    };
+    let (mut depth, mut held) = (to_spread, config.target_occupancy as usize);
+    while held < len && depth < max {
+        held = held.saturating_mul(1 << AXES);
+        depth += 1;
+    }
+    depth
 }
 
 /// A loose octree (Ulrich, Game Programming Gems 1, "Loose Octrees") over moving boxes,
@@ -49,6 +88,12 @@ pub struct LooseTree<const AXES: usize> {
 /// octrees). Objects live at interior octants as well as leaves, so
 /// [`insert`](Self::insert), [`update`](Self::update) and [`remove`](Self::remove) cost
 /// O(depth).
+///
+/// **Depth limit.** By size alone, small objects each end in an octant of their own many
+/// levels down. With [`OctreeConfig::target_occupancy`] set, the tree also goes no deeper
+/// than the level whose cells would hold its entries that many at a time, a limit that rises
+/// as it fills; objects small enough for deeper cells share the octants at the limit. Off by
+/// default (Ulrich's rule alone).
 ///
 /// **Motion.** An object whose new box stays inside its octant's loose cell is only
 /// rewritten: [`update`](Self::update) returns `Ok(false)`. It moves when it leaves the loose
@@ -173,6 +218,8 @@ impl<const AXES: usize> LooseTree<AXES> {
             refit_buckets: Vec::new(),
             level_counts: vec![0; (LEVEL_OFFSET as usize) + usize::from(config.max_depth) + 1],
             entry_bytes: 0,
+            depth_limit: population_depth::<AXES>(&config, 0, &Aabb::EMPTY),
+            spread: Aabb::EMPTY,
         })
     }
 

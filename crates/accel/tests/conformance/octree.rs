@@ -32,6 +32,15 @@ fn build<const AXES: usize>(
     (tree, handles)
 }
 
+/// The default settings, depth from size alone (no limit from the population), spelled out:
+/// what the tests of Ulrich's placement rule assume.
+fn size_only() -> OctreeConfig {
+    OctreeConfig {
+        target_occupancy: 0,
+        ..OctreeConfig::default()
+    }
+}
+
 /// Settings with a small world cube, so the suite's scenes make the root grow.
 fn small_world(looseness: f32) -> OctreeConfig {
     OctreeConfig {
@@ -45,9 +54,14 @@ fn small_world(looseness: f32) -> OctreeConfig {
 fn octrees_and_quadtrees_answer_every_query() {
     for (scene, entries, seed) in scenes() {
         for k in LOOSENESSES {
+            let shared = OctreeConfig {
+                target_occupancy: 4,
+                ..OctreeConfig::default().with_looseness(k)
+            };
             for (world, config) in [
                 ("default world", OctreeConfig::default().with_looseness(k)),
                 ("small world", small_world(k)),
+                ("default world, 4 a cell", shared),
             ] {
                 let (octree, _) = build::<3>(config, &entries);
                 check_queries(
@@ -139,7 +153,7 @@ fn an_objects_depth_follows_from_its_size() {
     let config = OctreeConfig {
         world_half_size: 64.0,
         max_depth: 16,
-        ..OctreeConfig::default()
+        ..size_only()
     };
     let mut tree = LooseOctree::with_config(config).unwrap();
     let mut rng = Rng::new(5);
@@ -161,7 +175,7 @@ fn an_objects_depth_follows_from_its_size() {
 
 #[test]
 fn a_move_inside_the_loose_cell_is_a_box_write() {
-    let mut tree = LooseOctree::new();
+    let mut tree = LooseOctree::with_config(size_only()).unwrap();
     let b = Aabb::from_center_half_extents(Vec3A::new(10.3, 20.7, -5.1), Vec3A::splat(0.4));
     let h = tree.insert(1, b).unwrap();
     tree.insert(2, Aabb::from_point(Vec3A::splat(-300.0)))
@@ -409,7 +423,7 @@ fn everything_in_one_cell() {
     let mut entries: Vec<(u32, Aabb)> = (0..1500).map(|i| (i, point)).collect();
     entries.extend((1500..2000).map(|i| (i, small)));
     for k in LOOSENESSES {
-        let config = OctreeConfig::default().with_looseness(k);
+        let config = size_only().with_looseness(k);
         let (mut tree, handles) = build::<3>(config, &entries);
         check_queries(&format!("one cell, k={k}"), &tree, &entries, 9);
         // Every entry sits at the deepest level, in one octant right below the root: the
@@ -579,7 +593,7 @@ fn check_planar_rays<S: SpatialQuery>(name: &str, tree: &S, entries: &[(u32, Aab
 
 #[test]
 fn node_bounds_shrink_to_what_is_left() {
-    let mut tree = LooseOctree::new();
+    let mut tree = LooseOctree::with_config(size_only()).unwrap();
     let inner = Aabb::from_center_half_extents(Vec3A::splat(1.0), Vec3A::splat(0.5));
     let outer = Aabb::from_center_half_extents(Vec3A::splat(300.0), Vec3A::splat(0.5));
     tree.insert(1, inner).unwrap();
@@ -598,4 +612,68 @@ fn node_bounds_shrink_to_what_is_left() {
     let root = tree.root().unwrap();
     assert!(holds(tree.node_bounds(root), inner.union(&moved)));
     tree.validate().unwrap();
+}
+
+#[test]
+fn small_objects_share_the_deepest_octants_the_population_allows() {
+    // Tiny boxes spread over the world: by size alone each would sit 12 levels down in an
+    // octant of its own. With 4 entries per cell as the aim, the depth limit rises with the
+    // population (4 * 4^d cells' worth), and entries at the old limit go down with it.
+    let config = OctreeConfig {
+        world_half_size: 1000.0,
+        target_occupancy: 4,
+        ..OctreeConfig::default()
+    };
+    let mut tree = Quadtree::with_config(config).unwrap();
+    let mut rng = Rng::new(31);
+    let mut entries = Vec::new();
+    for i in 0..10_000u32 {
+        let b = Aabb::from_center_half_extents(
+            rng.vec3a(-990.0, 990.0) * Vec3A::new(1.0, 1.0, 0.0),
+            Vec3A::new(0.5, 0.5, 0.0),
+        );
+        tree.insert(i, b).unwrap();
+        entries.push((i, b));
+        if i == 99 || i == 999 || i == 9_999 {
+            tree.maintain();
+            tree.validate().unwrap();
+            // The first depth whose 4^d cells hold the entries four at a time.
+            let n = i as usize + 1;
+            let limit = (0..).find(|d| 4 * 4usize.pow(*d) >= n).unwrap();
+            assert!(
+                tree.depth() <= limit as usize,
+                "{n} entries at depth {}",
+                tree.depth()
+            );
+            assert!(
+                tree.depth() + 1 >= limit as usize,
+                "{n} entries at depth {}",
+                tree.depth()
+            );
+        }
+    }
+    // They share octants: by size alone there would be one or more per entry.
+    assert!(
+        tree.octant_count() * 5 < entries.len() * 3,
+        "{} octants",
+        tree.octant_count()
+    );
+    check_queries("population limit", &tree, &entries, 41);
+    // Removing most keeps the limit (it only rises) and every invariant.
+    let mut tree2 = Quadtree::with_config(config).unwrap();
+    let handles: Vec<_> = entries
+        .iter()
+        .map(|&(i, b)| tree2.insert(i, b).unwrap())
+        .collect();
+    for h in handles.iter().skip(100) {
+        tree2.remove(*h).unwrap();
+    }
+    tree2.maintain();
+    tree2.validate().unwrap();
+    check_queries(
+        "population limit, most removed",
+        &tree2,
+        &entries[..100],
+        42,
+    );
 }

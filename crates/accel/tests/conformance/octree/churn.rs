@@ -235,6 +235,23 @@ fn quadtree_and_tighter_octree_churn() {
     let mut model = Vec::new();
     let mut tree = Quadtree::new();
     churn("quadtree churn", &mut tree, &mut model, 3000, 300, 24);
+    // The depth limit from the population (entries share the deepest octants it allows).
+    for occupancy in [1, 4, 16] {
+        let config = OctreeConfig {
+            world_half_size: 64.0,
+            max_depth: 8,
+            target_occupancy: occupancy,
+            ..OctreeConfig::default()
+        };
+        let mut model = Vec::new();
+        let mut tree = LooseOctree::with_config(config).unwrap();
+        let name = format!("octree churn, occupancy {occupancy}");
+        churn(&name, &mut tree, &mut model, 2000, 300, 25);
+        let mut model = Vec::new();
+        let mut tree = Quadtree::with_config(config).unwrap();
+        let name = format!("quadtree churn, occupancy {occupancy}");
+        churn(&name, &mut tree, &mut model, 2000, 300, 26);
+    }
 }
 
 #[test]

@@ -40,6 +40,8 @@ use rstar::{AABB, RTree};
 
 /// Half the side of the square world.
 const WORLD: f32 = 1000.0;
+/// The quadtree's `OctreeConfig::target_occupancy` here.
+const QUADTREE_OCCUPANCY: u32 = 16;
 /// Half the side of a query box: its area is 0.1% of the world's.
 const QUERY_HALF: f32 = 31.62;
 /// Distinct frames of moves (played forward, then backward with the steps negated).
@@ -272,7 +274,12 @@ fn bench_scene(kind: Scene, n: usize, s: &Settings, report: &mut Report) -> Figu
     let label = format!("{kind:?} {n}");
     let boxes = scene(kind, n, 1);
     let world = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(b));
-    let config = OctreeConfig::for_world(&world);
+    // Several boxes per deepest octant (`target_occupancy`): how a 2D game that asks for
+    // boxes more than rays would set it (the default, 0, keeps one octant per small box).
+    let config = OctreeConfig {
+        target_occupancy: QUADTREE_OCCUPANCY,
+        ..OctreeConfig::for_world(&world)
+    };
     let qs = queries(&boxes, s.queries, 2);
     let envs: Vec<AABB<[f32; 2]>> = qs.iter().map(envelope).collect();
     let centres: Vec<Vec3A> = qs.iter().map(Aabb::center).collect();
