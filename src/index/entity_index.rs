@@ -196,8 +196,10 @@ impl EntityIndex {
     /// Asks for what an [`update`](Self::update) of this entry reads first. A hint only.
     #[inline]
     pub(crate) fn prefetch_entry(&self, handle: AnyHandle) {
-        if let (Self::Bvh(pair), AnyHandle::DynamicBvh(h)) = (self, handle) {
-            pair.dynamic().prefetch_leaf(h);
+        match (self, handle) {
+            (Self::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.dynamic().prefetch_leaf(h),
+            (Self::Layered(layers), h) => layers.dynamic().prefetch_entry(h),
+            _ => {}
         }
     }
 

@@ -141,6 +141,18 @@ impl AnyIndex {
         }
     }
 
+    /// Asks for what an update of this entry reads at a scattered place, where the
+    /// structure says (the BVH's leaf, the loose tree's octant). A hint only.
+    #[inline]
+    pub fn prefetch_entry(&self, handle: AnyHandle) {
+        match (self, handle) {
+            (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.prefetch_leaf(h),
+            (Self::Octree(tree), AnyHandle::Octree(h)) => tree.prefetch_entry(h),
+            (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.prefetch_entry(h),
+            _ => {}
+        }
+    }
+
     /// The dynamic BVH, when that is the structure.
     pub fn as_dynamic_bvh(&self) -> Option<&DynamicBvh> {
         match self {
