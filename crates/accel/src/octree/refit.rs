@@ -12,6 +12,10 @@ use super::tree::LooseTree;
 /// octree). This is the dynamic BVH's fat leaf, sized by the cell rather than the box.
 pub(super) const OWN_MARGIN: f32 = 0.5;
 
+/// How many queued octants ahead the refit asks for the next one: a few octants' unions
+/// cover a memory latency.
+const REFIT_LOOKAHEAD: usize = 8;
+
 impl<const AXES: usize> LooseTree<AXES> {
     /// Makes the tree consistent for queries after edits: each octant an edit touched gets
     /// the union of its entries' boxes (kept by the edits) and its children's bounds as node
@@ -44,7 +48,14 @@ impl<const AXES: usize> LooseTree<AXES> {
         for depth in (0..levels).rev() {
             let level = root_level + depth as i16;
             let mut bucket = core::mem::take(&mut buckets[depth]);
-            for &o in &bucket {
+            for (i, &o) in bucket.iter().enumerate() {
+                // The queue is in edit order, so its octants lie scattered through the arena:
+                // each is asked for a few octants ahead, as the dynamic BVH's refit does.
+                if let Some(&ahead) = bucket.get(i + REFIT_LOOKAHEAD)
+                    && let Some(octant) = self.arena.octants.get(ahead as usize)
+                {
+                    crate::prefetch::prefetch_value(octant);
+                }
                 let octant = self.arena.get(o);
                 // Listed twice (released and made again, or moved to another level in
                 // place): refit once, at its level.
