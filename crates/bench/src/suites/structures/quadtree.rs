@@ -41,7 +41,7 @@ use rstar::{AABB, RTree};
 /// Half the side of the square world.
 const WORLD: f32 = 1000.0;
 /// The quadtree's `OctreeConfig::target_occupancy` here.
-const QUADTREE_OCCUPANCY: u32 = 16;
+const QUADTREE_OCCUPANCY: u32 = 32;
 /// Half the side of a query box: its area is 0.1% of the world's.
 const QUERY_HALF: f32 = 31.62;
 /// Distinct frames of moves (played forward, then backward with the steps negated).
