@@ -149,7 +149,6 @@ fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_cal
         index: IndexChoice::Automatic,
         automatic: AutomaticIndexSettings {
             min_entities: 100,
-            grid_at_entities: 100,
             hold_frames: 3,
             frames_between_switches: 0,
             ..default()

@@ -10,18 +10,12 @@ use bevy::prelude::*;
 /// The thresholds of [`IndexChoice::Automatic`], in
 /// [`AccelSettings::automatic`](crate::AccelSettings::automatic). The defaults follow the
 /// whole-frame figures (BENCHMARKS.md, Whole frame): the grid for a busy set of movers that
-/// few rays walk when much of it is in view; the BVH otherwise.
+/// few rays walk, whatever the views see; the BVH otherwise.
 #[derive(Reflect, Clone, Debug, PartialEq)]
 #[reflect(Default)]
 pub struct AutomaticIndexSettings {
     /// Below this many dynamic entities the BVH is kept.
     pub min_entities: usize,
-    /// A busy set this large takes the grid whatever the views see (`usize::MAX`, off, by
-    /// default: BENCHMARKS.md, Whole frame).
-    pub grid_at_entities: usize,
-    /// A smaller busy set takes the grid when the camera views see at least this share of
-    /// the entities (only known with `AccelCullingPlugin`).
-    pub grid_at_visible_share: f32,
     /// The grid is taken when at least this share of the dynamic entities moves a frame.
     pub grid_above_moved_share: f32,
     /// The BVH is taken back when the share falls below this (below the other threshold,
@@ -41,8 +35,6 @@ impl Default for AutomaticIndexSettings {
         let a = IndexAdvice::default();
         Self {
             min_entities: a.min_entries,
-            grid_at_entities: a.grid_at_entries,
-            grid_at_visible_share: a.grid_at_visible_share,
             grid_above_moved_share: a.grid_above_moved_share,
             bvh_below_moved_share: a.bvh_below_moved_share,
             max_rays_for_grid: a.max_rays_for_grid,
@@ -57,8 +49,6 @@ impl AutomaticIndexSettings {
     pub fn advice(&self) -> IndexAdvice {
         IndexAdvice {
             min_entries: self.min_entities,
-            grid_at_entries: self.grid_at_entities,
-            grid_at_visible_share: self.grid_at_visible_share,
             grid_above_moved_share: self.grid_above_moved_share,
             bvh_below_moved_share: self.bvh_below_moved_share,
             max_rays_for_grid: self.max_rays_for_grid,
@@ -77,8 +67,6 @@ pub struct AutomaticIndexStats {
     pub moved_share: f32,
     /// Averaged rays a frame.
     pub rays_per_frame: f32,
-    /// Averaged share of the entities the camera views saw.
-    pub visible_share: f32,
 }
 
 /// The advisor behind [`IndexChoice::Automatic`].
@@ -95,19 +83,12 @@ impl AutomaticIndex {
     }
 }
 
-/// The last frame's figures, as the culling reported them, when it runs.
-#[cfg(feature = "culling")]
-type CullingFigures<'w> = Option<Res<'w, crate::culling::CullingStats>>;
-#[cfg(not(feature = "culling"))]
-type CullingFigures<'w> = ();
-
 /// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
 /// only while the choice is automatic, so a fixed index pays nothing for it.
 pub(crate) fn advise_index(
     settings: Res<AccelSettings>,
     mut automatic: ResMut<AutomaticIndex>,
     mut stats: ResMut<AccelStats>,
-    culling: CullingFigures,
 ) {
     if settings.index != IndexChoice::Automatic {
         stats.automatic = None;
@@ -117,27 +98,15 @@ pub(crate) fn advise_index(
     if *automatic.0.advice() != advice {
         automatic.0.set_advice(advice);
     }
-    let entities = stats.dynamic_entities + stats.static_entities;
-    #[cfg(feature = "culling")]
-    let visible_share = culling
-        .filter(|c| c.views > 0 && entities > 0)
-        .map(|c| c.visible as f32 / c.views as f32 / entities as f32);
-    #[cfg(not(feature = "culling"))]
-    let visible_share = {
-        let () = culling;
-        None
-    };
     let kind = automatic.0.observe(IndexWorkload {
         entries: stats.dynamic_entities,
         moved: stats.moved,
         rays: stats.rays_per_frame,
-        visible_share,
     });
     stats.automatic = Some(AutomaticIndexStats {
         recommended: IndexChoice::of_kind(kind),
         moved_share: automatic.0.moved_share(),
         rays_per_frame: automatic.0.rays_per_frame(),
-        visible_share: automatic.0.visible_share(),
     });
 }
 

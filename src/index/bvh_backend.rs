@@ -235,7 +235,12 @@ fn keep_ray_snapshot(
         return;
     };
     if pair.dynamic_ray_snapshot_pending() {
-        with_pair(trees, StaticDynamicPair::poll_dynamic_ray_snapshot);
+        // Polled mutably only once the build is done: a mutable access marks `AccelTrees`
+        // changed, and every frame of a background build (a second or so at a million
+        // movers) would otherwise cost the culling its kept walks.
+        if pair.dynamic_ray_snapshot_finished() {
+            with_pair(trees, StaticDynamicPair::poll_dynamic_ray_snapshot);
+        }
         return;
     }
     if pair.dynamic().is_empty() {

@@ -44,9 +44,9 @@ pub enum IndexChoice {
     /// A flat list: every query tests every moving entity. For a handful of movers, and to
     /// check the others against.
     BruteForce,
-    /// Chosen by the plugin from what it sees each frame (movers, rays, what is in view;
+    /// Chosen by the plugin from what it sees each frame (movers and rays;
     /// [`AutomaticIndexSettings`]): the BVH, or the grid for a busy set of movers that few
-    /// rays walk while much of it is in view. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
+    /// rays walk. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
     /// names the structure in use.
     Automatic,
 }

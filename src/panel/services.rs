@@ -73,11 +73,10 @@ impl ServiceControls<'_> {
         );
         if let Some(a) = self.stats.as_ref().and_then(|s| s.automatic) {
             ui.label(format!(
-                "automatic: {:?} (moved {:.1}%, {:.0} rays, {:.1}% in view a frame)",
+                "automatic: {:?} (moved {:.1}%, {:.0} rays a frame)",
                 a.recommended,
                 a.moved_share * 100.0,
                 a.rays_per_frame,
-                a.visible_share * 100.0
             ));
         }
         if matches!(edited.index, IndexChoice::Bvh | IndexChoice::Automatic) {

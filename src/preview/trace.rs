@@ -141,6 +141,12 @@ pub(super) fn trace_preview(
             }
         });
         state.budget.record(traced, times.iter().sum());
+        // Counted as the trees' other ray users count theirs: the automatic index choice and
+        // the BVH's ray snapshot follow the rays that walk the trees, and a preview frame
+        // casts at least one a pixel.
+        world
+            .trees
+            .count_rays(u32::try_from(traced).unwrap_or(u32::MAX));
         stats.traced = traced;
         tracer.resolve_rgba8(&state.image, &mut state.rgba);
         if let Some(mut image) = state.handle.as_ref().and_then(|h| images.get_mut(h)) {

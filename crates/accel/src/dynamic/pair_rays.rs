@@ -154,6 +154,13 @@ impl StaticDynamicPair {
         self.dynamic_rays.is_pending()
     }
 
+    /// Whether a snapshot made on another thread is done, so that
+    /// [`Self::poll_dynamic_ray_snapshot`] would install or drop it. An engine that polls
+    /// only then touches the pair mutably once per build, not every frame of it.
+    pub fn dynamic_ray_snapshot_finished(&self) -> bool {
+        self.dynamic_rays.is_finished()
+    }
+
     /// Whether rays walk a snapshot of the dynamic tree (see
     /// [`Self::snapshot_dynamic_for_rays`]).
     pub fn has_dynamic_ray_snapshot(&self) -> bool {

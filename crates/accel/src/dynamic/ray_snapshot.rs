@@ -174,6 +174,13 @@ impl RaySnapshot {
         self.job.is_some()
     }
 
+    /// Whether a snapshot built on another thread is done and waits for [`Self::poll`].
+    pub fn is_finished(&self) -> bool {
+        self.job
+            .as_ref()
+            .is_some_and(|job| job.handle.is_finished())
+    }
+
     /// Refits with motion since the held snapshot was built, if one is held.
     pub fn moving_refits(&self) -> Option<u32> {
         self.held.as_ref().map(|h| h.moving_refits)
@@ -259,7 +266,7 @@ impl RaySnapshot {
     /// was started with, refit to the leaves updated since, and drops it otherwise. Does not
     /// wait. Returns whether a snapshot is held.
     pub fn poll(&mut self, tree: &DynamicBvh) -> bool {
-        if self.job.as_ref().is_some_and(|job| job.handle.is_finished())
+        if self.is_finished()
             && let Some(job) = self.job.take()
             // A thread that panicked leaves the binary tree in use.
             && let Ok(mut held) = job.handle.join()

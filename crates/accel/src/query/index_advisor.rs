@@ -2,11 +2,13 @@
 //!
 //! The rules come from the whole-frame measurements (BENCHMARKS.md, Whole frame): with many
 //! movers, the uniform grid's O(1) update saves the BVH's refit and optimiser, while the BVH's
-//! rays and culling walks are the faster ones. The grid won the frames where the views saw
-//! much of the scene (the culling walk saves least there) and lost them under a strategy
-//! camera. So the grid is chosen for a busy set of movers that few rays walk when much of it
-//! is in view, the BVH otherwise. The octree, the quadtree and the flat list win no measured
-//! workload, and the advisor never picks them.
+//! rays are the faster ones. With a tenth or a quarter of the entities moving, the grid won
+//! the frames where the views saw much of the scene by a clear margin, and under a strategy
+//! camera the two were level within the runs' spread (the grid's culling walk costs more than
+//! the BVH's, about what its upkeep saves); with nothing moving they tied. So the grid is
+//! chosen for a busy set of movers that few rays walk, whatever is in view, the BVH
+//! otherwise. The octree, the quadtree and the flat list win no
+//! measured workload, and the advisor never picks them.
 
 use super::IndexKind;
 
@@ -17,12 +19,6 @@ pub struct IndexAdvice {
     /// Below this many dynamic entries the choice costs or saves little either way: the
     /// advisor keeps the BVH, whose rays are the fastest.
     pub min_entries: usize,
-    /// A busy set this large takes the grid whatever is in view (off by default,
-    /// `usize::MAX`: at a million entities under a strategy camera the BVH's frame was the
-    /// faster one) ...
-    pub grid_at_entries: usize,
-    /// ... and a smaller one when at least this share of the scene is in view (averaged).
-    pub grid_at_visible_share: f32,
     /// The grid is chosen when at least this share of the dynamic entries moves per frame
     /// (averaged) ...
     pub grid_above_moved_share: f32,
@@ -44,8 +40,6 @@ impl Default for IndexAdvice {
     fn default() -> Self {
         Self {
             min_entries: 20_000,
-            grid_at_entries: usize::MAX,
-            grid_at_visible_share: 0.2,
             grid_above_moved_share: 0.05,
             bvh_below_moved_share: 0.02,
             max_rays_for_grid: 16.0,
@@ -64,9 +58,6 @@ pub struct IndexWorkload {
     pub moved: usize,
     /// Rays cast through the index this frame.
     pub rays: f32,
-    /// Share of the scene the views saw this frame (the culling's visible count over the
-    /// entities), where the engine culls on the trees.
-    pub visible_share: Option<f32>,
 }
 
 /// Follows the workload and recommends an [`IndexKind`], with hysteresis: the same
@@ -77,7 +68,7 @@ pub struct IndexWorkload {
 /// ```
 /// use accel::query::{IndexAdvice, IndexAdvisor, IndexKind, IndexWorkload};
 /// let mut advisor = IndexAdvisor::new(IndexAdvice { hold_frames: 3, ..Default::default() });
-/// let busy = IndexWorkload { entries: 1_000_000, moved: 250_000, rays: 1.0, visible_share: Some(0.4) };
+/// let busy = IndexWorkload { entries: 1_000_000, moved: 250_000, rays: 1.0 };
 /// let kinds: Vec<IndexKind> = (0..5).map(|_| advisor.observe(busy)).collect();
 /// // The evidence held for three frames, and the third recommended the grid.
 /// assert_eq!(kinds[..2], [IndexKind::DynamicBvh; 2]);
@@ -89,7 +80,6 @@ pub struct IndexAdvisor {
     current: IndexKind,
     moved_share: f32,
     rays: f32,
-    visible_share: f32,
     observed: u64,
     leaning_frames: u32,
     since_switch: u32,
@@ -103,7 +93,6 @@ impl IndexAdvisor {
             current: IndexKind::DynamicBvh,
             moved_share: 0.0,
             rays: 0.0,
-            visible_share: 0.0,
             observed: 0,
             leaning_frames: 0,
             // The first choice may come as soon as the evidence holds.
@@ -136,11 +125,6 @@ impl IndexAdvisor {
         self.rays
     }
 
-    /// The averaged share of the scene in view.
-    pub fn visible_share(&self) -> f32 {
-        self.visible_share
-    }
-
     /// Records one frame and returns the kind recommended after it.
     pub fn observe(&mut self, frame: IndexWorkload) -> IndexKind {
         let share = if frame.entries == 0 {
@@ -162,9 +146,6 @@ impl IndexAdvisor {
         };
         self.moved_share += (share - self.moved_share) * k;
         self.rays += (rays - self.rays) * k;
-        if let Some(v) = frame.visible_share.filter(|v| v.is_finite()) {
-            self.visible_share += (v.clamp(0.0, 1.0) - self.visible_share) * k;
-        }
         self.observed += 1;
         self.since_switch = self.since_switch.saturating_add(1);
 
@@ -187,9 +168,7 @@ impl IndexAdvisor {
     /// What the averages ask for, the current choice breaking ties inside the hysteresis band.
     fn wanted(&self, entries: usize) -> IndexKind {
         let a = &self.advice;
-        let grid_pays =
-            entries >= a.grid_at_entries || self.visible_share >= a.grid_at_visible_share;
-        if entries < a.min_entries || self.rays > a.max_rays_for_grid || !grid_pays {
+        if entries < a.min_entries || self.rays > a.max_rays_for_grid {
             return IndexKind::DynamicBvh;
         }
         if self.moved_share >= a.grid_above_moved_share {
@@ -223,13 +202,11 @@ mod tests {
         entries: 1_000_000,
         moved: 250_000,
         rays: 1.0,
-        visible_share: Some(0.4),
     };
     const CALM: IndexWorkload = IndexWorkload {
         entries: 1_000_000,
         moved: 1_000,
         rays: 1.0,
-        visible_share: Some(0.4),
     };
 
     #[test]
@@ -258,24 +235,23 @@ mod tests {
     }
 
     #[test]
-    fn a_smaller_busy_set_takes_the_grid_only_when_much_of_it_is_in_view() {
-        let advice = IndexAdvice {
+    fn a_smaller_busy_set_takes_the_grid_too() {
+        let mut a = IndexAdvisor::new(IndexAdvice {
             frames_between_switches: 0,
             ..IndexAdvice::default()
-        };
-        let mut a = IndexAdvisor::new(advice);
-        let strategy = IndexWorkload {
+        });
+        let busy_100k = IndexWorkload {
             entries: 100_000,
-            moved: 25_000,
+            moved: 10_000,
             rays: 1.0,
-            visible_share: Some(0.02),
         };
-        assert_eq!(run(&mut a, strategy, 300), IndexKind::DynamicBvh);
-        let ground = IndexWorkload {
-            visible_share: Some(0.4),
-            ..strategy
+        assert_eq!(run(&mut a, busy_100k, 300), IndexKind::Grid);
+        let below_the_minimum = IndexWorkload {
+            entries: 19_999,
+            ..busy_100k
         };
-        assert_eq!(run(&mut a, ground, 300), IndexKind::Grid);
+        let mut a = IndexAdvisor::default();
+        assert_eq!(run(&mut a, below_the_minimum, 300), IndexKind::DynamicBvh);
     }
 
     #[test]
@@ -290,7 +266,6 @@ mod tests {
             entries: 5_000,
             moved: 5_000,
             rays: 0.0,
-            visible_share: Some(1.0),
         };
         assert_eq!(run(&mut a, small, 500), IndexKind::DynamicBvh);
         // A burst shorter than the hold time does not switch.
@@ -316,7 +291,6 @@ mod tests {
                 entries: 0,
                 moved: usize::MAX,
                 rays,
-                visible_share: Some(rays),
             };
             a.observe(frame);
             assert!(a.moved_share().is_finite() && a.rays_per_frame().is_finite());
