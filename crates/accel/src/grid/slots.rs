@@ -75,6 +75,18 @@ impl Slots {
         self.live
     }
 
+    /// Asks for the entry and generation [`Self::find`] and an update read. A hint only.
+    #[inline]
+    pub fn prefetch(&self, handle: GridHandle) {
+        let slot = handle.slot as usize;
+        if let (Some(entry), Some(generation)) =
+            (self.entries.get(slot), self.generations.get(slot))
+        {
+            crate::prefetch::prefetch_node(entry);
+            crate::prefetch::prefetch_node(generation);
+        }
+    }
+
     /// The slot of a live handle.
     #[inline]
     pub fn find(&self, handle: GridHandle) -> Option<u32> {

@@ -149,6 +149,7 @@ impl AnyIndex {
             (Self::DynamicBvh(tree), AnyHandle::DynamicBvh(h)) => tree.prefetch_leaf(h),
             (Self::Octree(tree), AnyHandle::Octree(h)) => tree.prefetch_entry(h),
             (Self::Quadtree(tree), AnyHandle::Octree(h)) => tree.prefetch_entry(h),
+            (Self::Grid(grid), AnyHandle::Grid(h)) => grid.prefetch_entry(h),
             _ => {}
         }
     }
