@@ -1,8 +1,9 @@
 //! # bevy_accel
 //!
 //! Acceleration structures over a Bevy world's entities. Add [`AccelPlugin`] and every entity
-//! with an `Aabb` and a `GlobalTransform` is kept in a BVH, in step with its transform, every
-//! frame, at no cost in frames where nothing changed. Query it through [`AccelTrees`].
+//! with an `Aabb` and a `GlobalTransform` is kept in the trees (a BVH, or a uniform grid while
+//! many entities move: [`IndexChoice`]), in step with its transform, every frame, at no cost
+//! in frames where nothing changed. Query them through [`AccelTrees`].
 //!
 //! The geometry lives in the engine-independent crate [`accel`] (re-exported); this crate only
 //! connects it to the ECS.

@@ -23,9 +23,9 @@ pub struct AccelSettings {
     /// (see docs/experiments.md, Plugin sync). A static entity that moves while this is off
     /// keeps its old box until the marker is removed or inserted again.
     pub watch_static_motion: bool,
-    /// The structure that holds the moving entities. Changing it moves every dynamic entity
-    /// into a new index of that kind at the next sync (one insertion each); queries see the
-    /// same entities before and after.
+    /// The structure that holds the moving entities; [`IndexChoice::Automatic`] by default.
+    /// Changing it moves every dynamic entity into a new index of that kind at the next sync
+    /// (one insertion each); queries see the same entities before and after.
     pub index: IndexChoice,
     /// A change of [`index`](Self::index) (or of the automatic choice) with at most this many
     /// dynamic entities moves them in the frame; with more, the new structure is filled on

@@ -30,7 +30,6 @@ use bevy::prelude::*;
 pub enum IndexChoice {
     /// A dynamic BVH with fat leaves, fused with the static tree, and a 16-wide snapshot for
     /// rays ([`BvhIndexSettings`]).
-    #[default]
     Bvh,
     /// A loose octree ([`accel::LooseOctree`]): an entity at the depth its size gives, a move
     /// inside its loose cell one box write.
@@ -47,7 +46,9 @@ pub enum IndexChoice {
     /// Chosen by the plugin from what it sees each frame (movers and rays;
     /// [`AutomaticIndexSettings`]): the BVH, or the grid for a busy set of movers that few
     /// rays walk. It starts on the BVH; [`AccelStats::index`](crate::AccelStats::index)
-    /// names the structure in use.
+    /// names the structure in use. The default: in the whole-frame runs it was within the
+    /// runs' spread of the best fixed choice (BENCHMARKS.md, Whole frame).
+    #[default]
     Automatic,
 }
 
