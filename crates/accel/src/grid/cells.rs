@@ -101,6 +101,10 @@ pub(super) struct CellTable {
     freed_since_refresh: usize,
     /// Loose ranges grown by edits since the last `take_grown`.
     grown: usize,
+    /// On each axis, at least the widest cell range (`hi - lo`) of any item added since the
+    /// last `clear`: how far past its lowest cell an entry can reach. Only grows, so it may
+    /// overstate the entries of now, never understate them.
+    max_span: [i32; 3],
 }
 
 impl CellTable {
@@ -129,6 +133,20 @@ impl CellTable {
     #[inline]
     pub fn occupied(&self) -> CellRange {
         self.occupied
+    }
+
+    /// How far past its lowest cell, on each axis, an entry of the cells may reach (see
+    /// `max_span`).
+    #[inline]
+    pub fn max_span(&self) -> [i32; 3] {
+        self.max_span
+    }
+
+    #[inline]
+    fn note_span(&mut self, range: &CellRange) {
+        for a in 0..3 {
+            self.max_span[a] = self.max_span[a].max(range.hi[a].saturating_sub(range.lo[a]));
+        }
     }
 
     /// Calls `f` on each cell of `range`. By lookups when the range has fewer cells than the
@@ -161,6 +179,7 @@ impl CellTable {
 
     /// Adds `item` (an entry with cells `range`) to the cell `key`, creating the cell.
     pub fn add(&mut self, key: CellKey, item: u32, range: &CellRange) {
+        self.note_span(range);
         let cell = self.map.entry(key).or_insert_with(|| {
             self.occupied = self.occupied.union(&CellRange::single(key));
             Cell {
@@ -220,6 +239,7 @@ impl CellTable {
 
     /// Rewrites the item of `slot` in cell `key` as `item`, its entry's cells now `range`.
     pub fn rewrite(&mut self, key: CellKey, slot: u32, item: u32, range: &CellRange) {
+        self.note_span(range);
         let Some(cell) = self.map.get_mut(&key) else {
             debug_assert!(false, "entry {slot} missing from cell {key:?}");
             return;
@@ -244,6 +264,7 @@ impl CellTable {
         self.items = 0;
         self.occupied = CellRange::EMPTY;
         self.freed_since_refresh = 0;
+        self.max_span = [0; 3];
     }
 
     /// Recomputes the occupied range once enough cells were freed for it to have shrunk by

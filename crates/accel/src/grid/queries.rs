@@ -3,6 +3,7 @@
 //! testing the entry's own box.
 
 use super::cells::{Cell, LO_CELL, SLOT_MASK};
+use super::lattice::{CellRange, LIMIT};
 use super::slots::Entry;
 use super::uniform::UniformGrid;
 use crate::query::SpatialQuery;
@@ -10,6 +11,11 @@ use crate::query::views::{ViewClassification, ViewMasks};
 use crate::{Aabb, Containment, Frustum, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
+
+/// The most cells of a block that the view walks look up cell by cell instead of halving
+/// it again: small enough that a block straddling a view's edge costs a few lookups, large
+/// enough that the halving's own box tests stay few beside them.
+const VIEW_BLOCK_CELLS: u64 = 64;
 
 impl UniformGrid {
     /// Calls `visit` on each entry whose box passes `test`, among the oversize list and the
@@ -48,10 +54,18 @@ impl UniformGrid {
     }
 
     /// Calls `visit` on each entry of a cell that is its lowest cell, and on each oversize
-    /// entry: every entry once, for queries over the whole occupied range. `skip(cell)` drops
-    /// a cell whose entries all fail the query: it is asked about the world box of the
-    /// cell's loose range, which holds every entry box of the cell. Both get `state`, the
-    /// query's own test, which they share.
+    /// entry: every entry once, for queries over the whole occupied range. `skip(region)`
+    /// drops a region whose entries all fail the query: it is asked about world boxes that
+    /// hold every entry box reported from the region. Both get `state`, the query's own
+    /// test, which they share.
+    ///
+    /// Why blocks: a view sees a small part of a large grid, and a pass over every cell of
+    /// the table cost the frustum several times the BVH's walk (BENCHMARKS.md, Uniform grid).
+    /// Where the cells fill most of their occupied range, that range is halved down to blocks
+    /// of [`VIEW_BLOCK_CELLS`], each skipped whole when the box of what its cells can report
+    /// fails (an implicit octree over the cell keys, built by the query itself); the cells of
+    /// the blocks left are found by lookups. A sparse table is passed over as before, since
+    /// lookups of empty keys would cost more than it.
     fn for_each_lowest<S, K, F>(&self, state: &mut S, skip: K, mut visit: F)
     where
         K: Fn(&mut S, &Aabb) -> bool,
@@ -61,14 +75,73 @@ impl UniformGrid {
         for &slot in &self.oversize {
             visit(state, &entries[slot as usize]);
         }
+        let occupied = self.cells.occupied();
+        if occupied.is_empty() {
+            return;
+        }
+        if occupied.count() <= 2 * self.cells.len() as u64 {
+            self.for_each_lowest_in_block(occupied, state, &skip, &mut visit);
+            return;
+        }
         for (_, cell) in self.cells.iter() {
-            if skip(state, &self.loose_box(cell)) {
-                continue;
-            }
-            for item in cell.items() {
-                if item & LO_CELL != 0 {
-                    visit(state, &entries[(item & SLOT_MASK) as usize]);
+            self.visit_lowest_of_cell(cell, state, &skip, &mut visit);
+        }
+    }
+
+    /// [`Self::for_each_lowest`] over the cells of `block`, halving it while it is large.
+    fn for_each_lowest_in_block<S, K, F>(
+        &self,
+        block: CellRange,
+        state: &mut S,
+        skip: &K,
+        visit: &mut F,
+    ) where
+        K: Fn(&mut S, &Aabb) -> bool,
+        F: FnMut(&mut S, &Entry),
+    {
+        // An entry reported here has its lowest cell in the block and reaches at most the
+        // widest span past it.
+        let span = self.cells.max_span();
+        let reach = CellRange {
+            lo: block.lo,
+            hi: [0, 1, 2].map(|a| block.hi[a].saturating_add(span[a]).min(LIMIT)),
+        };
+        if skip(state, &self.lattice.world_box(&reach)) {
+            return;
+        }
+        if block.count() <= VIEW_BLOCK_CELLS {
+            for key in block.keys() {
+                if let Some(cell) = self.cells.get(key) {
+                    self.visit_lowest_of_cell(cell, state, skip, visit);
                 }
+            }
+            return;
+        }
+        let widths = [0, 1, 2].map(|a| i64::from(block.hi[a]) - i64::from(block.lo[a]));
+        let axis = (0..3).max_by_key(|&a| widths[a]).unwrap_or(0);
+        let mid = (i64::from(block.lo[axis]) + widths[axis] / 2) as i32;
+        let (mut low, mut high) = (block, block);
+        low.hi[axis] = mid;
+        high.lo[axis] = mid + 1;
+        self.for_each_lowest_in_block(low, state, skip, visit);
+        self.for_each_lowest_in_block(high, state, skip, visit);
+    }
+
+    /// The entries whose lowest cell is `cell`, unless its loose box (which holds every entry
+    /// box of the cell) is skipped.
+    #[inline]
+    fn visit_lowest_of_cell<S, K, F>(&self, cell: &Cell, state: &mut S, skip: &K, visit: &mut F)
+    where
+        K: Fn(&mut S, &Aabb) -> bool,
+        F: FnMut(&mut S, &Entry),
+    {
+        if skip(state, &self.loose_box(cell)) {
+            return;
+        }
+        let entries = &self.slots.entries;
+        for item in cell.items() {
+            if item & LO_CELL != 0 {
+                visit(state, &entries[(item & SLOT_MASK) as usize]);
             }
         }
     }

@@ -10,6 +10,7 @@
 
 mod edits;
 mod grid;
+mod grid_views;
 mod nodes;
 mod octree;
 #[path = "../scenes/mod.rs"]

@@ -174,7 +174,7 @@ fn assert_unique(ids: &mut [u32]) {
 }
 
 /// Every box the frustum reaches is reported; one reported as inside is inside.
-fn check_frustum<S: SpatialQuery + ?Sized>(
+pub fn check_frustum<S: SpatialQuery + ?Sized>(
     name: &str,
     index: &S,
     boxes: &HashMap<u32, Aabb>,
@@ -204,7 +204,7 @@ fn check_frustum<S: SpatialQuery + ?Sized>(
 }
 
 /// Every view that reaches a box is in its masks; a view said to hold it holds it.
-fn check_views<S: SpatialQuery + ?Sized>(
+pub fn check_views<S: SpatialQuery + ?Sized>(
     name: &str,
     index: &S,
     boxes: &HashMap<u32, Aabb>,
