@@ -112,7 +112,8 @@ struct Tracked {
 }
 
 /// The acceleration trees over the tracked entities: a dynamic index for things that move
-/// (a BVH unless [`AccelSettings::index`](crate::AccelSettings::index) says otherwise) and a
+/// (the BVH, or the grid for many movers, as [`AccelSettings::index`](crate::AccelSettings::index)
+/// chooses) and a
 /// static BVH for things marked [`AccelStatic`](crate::AccelStatic), queried as one
 /// ([`EntityIndex`]).
 ///
