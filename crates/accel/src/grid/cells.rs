@@ -101,6 +101,11 @@ pub(super) struct CellTable {
     freed_since_refresh: usize,
     /// Loose ranges grown by edits since the last `take_grown`.
     grown: usize,
+    /// `spill_capacity` as the last pass over the cells in `trim` left it. Lists that pass
+    /// keeps (a cell's empty list of a few slots, say) can outweigh the items they could
+    /// hold, and without this floor every later `trim` would walk every cell again to free
+    /// nothing: O(cells) a frame instead of O(1) an edit.
+    spill_after_trim: usize,
     /// On each axis, at least the widest cell range (`hi - lo`) of any item added since the
     /// last `clear`: how far past its lowest cell an entry can reach. Only grows, so it may
     /// overstate the entries of now, never understate them.
@@ -262,6 +267,7 @@ impl CellTable {
             }
         }
         self.items = 0;
+        self.spill_after_trim = 0;
         self.occupied = CellRange::EMPTY;
         self.freed_since_refresh = 0;
         self.max_span = [0; 3];
@@ -282,10 +288,11 @@ impl CellTable {
     }
 
     /// Gives memory back once it is far above what the cells hold: spare lists beyond a
-    /// small pool, oversized spill lists, and the map's capacity. Each trim is a pass over
-    /// the cells, taken only when the waste is at least as large as what is held, so it
-    /// costs O(1) per edit that created the waste (the doubling argument of `Vec`).
-    pub fn trim(&mut self) {
+    /// small pool, oversized spill lists, and the map's capacity. A pass over the cells is
+    /// taken only when the waste is at least as large as what is held and the spill capacity
+    /// at least doubled since the last pass, so it costs O(1) per edit that created the waste
+    /// (the doubling argument of `Vec`). Says whether it walked the cells.
+    pub fn trim(&mut self) -> bool {
         const POOL: usize = 64;
         if self.spare.len() > POOL.max(self.map.len() / 16) {
             let keep = POOL.max(self.map.len() / 32);
@@ -300,7 +307,8 @@ impl CellTable {
         // per list.
         let spilled = self.items.saturating_sub(INLINE * self.map.len());
         let tolerated = 2 * spilled + 8 * self.spare.len() + 8 * POOL;
-        if self.spill_capacity > 2 * tolerated {
+        let walk = self.spill_capacity > 2 * tolerated.max(self.spill_after_trim);
+        if walk {
             for list in &mut self.spare {
                 self.spill_capacity -= list.capacity();
                 list.shrink_to(8);
@@ -313,10 +321,12 @@ impl CellTable {
                     self.spill_capacity += cell.spill.capacity();
                 }
             }
+            self.spill_after_trim = self.spill_capacity;
         }
         if self.map.capacity() > 4 * self.map.len() + POOL {
             self.map.shrink_to(self.map.len() + self.map.len() / 4);
         }
+        walk
     }
 
     /// Loose ranges grown by moves since the last call (the maintain report's refit count).
@@ -350,5 +360,45 @@ impl CellTable {
             let n = c.len as usize;
             n > 0 && c.spill.len() == n.saturating_sub(INLINE)
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Cells that once spilled and fell back to their inline items keep small empty lists,
+    /// which no trim frees. A regression: each later trim walked every cell again (a tenth
+    /// of a 1M-entity frame's upkeep), where the waste had not grown since the last walk.
+    #[test]
+    fn trim_walks_the_cells_again_only_once_the_waste_doubled() {
+        let mut table = CellTable::default();
+        let cells = 4_000;
+        for c in 0..cells {
+            let key = CellKey([c, 0, 0]);
+            let range = CellRange::single(key);
+            for slot in 0..=INLINE as u32 {
+                table.add(key, c as u32 * 8 + slot, &range);
+            }
+            // Back to its inline items: an empty list with room stays in the cell.
+            table.remove(key, c as u32 * 8 + INLINE as u32);
+        }
+        assert!(table.spill_capacity().0 >= cells as usize);
+        assert!(table.trim(), "the first trim walks the wasteful cells");
+        assert!(!table.trim(), "nothing changed: no second walk");
+        assert!(!table.trim());
+        let (kept, counted) = table.spill_capacity();
+        assert_eq!(kept, counted);
+        // Twice as much waste again: the next trim walks.
+        for c in cells..cells * 3 {
+            let key = CellKey([c, 0, 0]);
+            let range = CellRange::single(key);
+            for slot in 0..=INLINE as u32 {
+                table.add(key, c as u32 * 8 + slot, &range);
+            }
+            table.remove(key, c as u32 * 8 + INLINE as u32);
+        }
+        assert!(table.trim());
+        assert!(!table.trim());
     }
 }
