@@ -1,7 +1,7 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
 //! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]
-//! [--overlays-off] [--panel-closed] [--compute-threads N]`
+//! [--overlays-off] [--panel-closed] [--compute-threads N] [--scene N/PCT/CAMERA[/INDEX]]`
 //!
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
@@ -57,6 +57,9 @@ pub struct Options {
     /// Threads of Bevy's compute pool for the plugin suites (Bevy's default otherwise: what
     /// is left of the cores after one each for I/O and async work, at least one).
     pub compute_threads: Option<usize>,
+    /// The frame suite runs only this scene (`1000000/25/strategy`), and with a fourth part
+    /// (`/Grid`) only that index beside the floor and Bevy: one cell, for a profiler.
+    pub frame_scene: Option<String>,
 }
 
 const SUITES: &[&str] = &[
@@ -80,12 +83,14 @@ const SUITES: &[&str] = &[
 ];
 
 const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
-    [--overlays-off] [--panel-closed] [--compute-threads N]\n\
+    [--overlays-off] [--panel-closed] [--compute-threads N] [--scene N/PCT/CAMERA[/INDEX]]\n\
     SUITE: stress | build | update | rays | meshes | preview | frame | culling | lights | picking | sync |\n\
     scenery | walks | geometry | structures | triangles | all\n\
     --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
     --panel-closed: the frame suite also times the panel plugin with the panel closed\n\
-    --compute-threads N: Bevy's compute pool gets N threads in the plugin suites";
+    --compute-threads N: Bevy's compute pool gets N threads in the plugin suites\n\
+    --scene N/PCT/CAMERA[/INDEX]: the frame suite runs that scene only (1000000/25/strategy),\n\
+      and with INDEX (Bvh, Grid, Automatic, ...) only that index beside the floor and Bevy";
 
 fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
     let mut opts = Options {
@@ -96,6 +101,7 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
         overlays_off: false,
         panel_closed: false,
         compute_threads: None,
+        frame_scene: None,
     };
     let mut args = args.into_iter();
     while let Some(arg) = args.next() {
@@ -109,6 +115,9 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
                     "--compute-threads needs a count of 1 or more, not {n:?}"
                 ))?;
                 opts.compute_threads = Some(n);
+            }
+            "--scene" => {
+                opts.frame_scene = Some(args.next().ok_or("--scene needs N/PCT/CAMERA")?);
             }
             "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
             "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),

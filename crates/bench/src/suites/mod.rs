@@ -51,7 +51,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "rays" => rays::run(opts.quick),
         "meshes" => meshes::run(opts.quick),
         "preview" => preview::run(opts.quick),
-        "frame" => frame::run(opts.quick, opts.overlays_off, opts.panel_closed),
+        "frame" => frame::run(opts),
         "culling" => culling::run(opts.quick),
         "picking" => picking::run(opts.quick),
         "sync" => sync::run(opts.quick),

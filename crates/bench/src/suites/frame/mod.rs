@@ -33,6 +33,7 @@
 mod app;
 
 use super::point;
+use crate::Options;
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::median;
@@ -43,6 +44,7 @@ use bevy_accel::prelude::*;
 use std::time::{Duration, Instant};
 
 /// One field size and what runs on it.
+#[derive(Clone, Copy)]
 struct Size {
     entities: usize,
     indexes: &'static [IndexChoice],
@@ -160,19 +162,84 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
         .collect()
 }
 
-/// Runs the suite; `overlays_off` adds the overlays' contenders, `panel_closed` the panel's.
-pub fn run(quick: bool, overlays_off: bool, panel_closed: bool) -> Report {
+/// One scene of `--scene N/PCT/CAMERA[/INDEX]`, and the index asked for with it.
+fn parse_scene(text: &str) -> Result<(Scene, Option<IndexChoice>), String> {
+    let parts: Vec<&str> = text.split('/').collect();
+    let bad = || format!("--scene wants N/PCT/CAMERA[/INDEX], not {text:?}");
+    if !(3..=4).contains(&parts.len()) {
+        return Err(bad());
+    }
+    let entities = parts[0].parse().map_err(|_| bad())?;
+    let moving_pct = parts[1]
+        .parse()
+        .ok()
+        .filter(|&p| p <= 100)
+        .ok_or_else(bad)?;
+    let camera = match parts[2].to_ascii_lowercase().as_str() {
+        "strategy" => CameraKind::Strategy,
+        "ground" => CameraKind::Ground,
+        _ => return Err(bad()),
+    };
+    let index = match parts.get(3) {
+        None => None,
+        Some(name) => Some(
+            IndexChoice::ALL
+                .into_iter()
+                .find(|i| format!("{i:?}").eq_ignore_ascii_case(name))
+                .ok_or_else(bad)?,
+        ),
+    };
+    let scene = Scene {
+        entities,
+        moving_pct,
+        camera,
+    };
+    Ok((scene, index))
+}
+
+/// Runs the suite; `--overlays-off` adds the overlays' contenders, `--panel-closed` the
+/// panel's, `--scene` keeps one scene (and perhaps one index).
+pub fn run(opts: &Options) -> Report {
+    let (quick, overlays_off, panel_closed) = (opts.quick, opts.overlays_off, opts.panel_closed);
     let sizes = if quick { QUICK } else { FULL };
-    let mut scenes: Vec<(Scene, &Size)> = Vec::new();
-    for size in sizes.sizes {
-        for &moving_pct in sizes.moving {
-            for &camera in sizes.cameras {
-                let scene = Scene {
-                    entities: size.entities,
-                    moving_pct,
-                    camera,
-                };
-                scenes.push((scene, size));
+    let mut scenes: Vec<(Scene, Size)> = Vec::new();
+    if let Some(text) = &opts.frame_scene {
+        let (scene, index) = match parse_scene(text) {
+            Ok(parsed) => parsed,
+            Err(e) => {
+                eprintln!("{e}");
+                std::process::exit(2);
+            }
+        };
+        let nearest = sizes
+            .sizes
+            .iter()
+            .min_by_key(|s| s.entities.abs_diff(scene.entities))
+            .expect("every run has a size");
+        let indexes: &'static [IndexChoice] = match index {
+            Some(i) => IndexChoice::ALL
+                .iter()
+                .position(|&c| c == i)
+                .map_or(nearest.indexes, |p| &IndexChoice::ALL[p..=p]),
+            None => nearest.indexes,
+        };
+        let size = Size {
+            entities: scene.entities,
+            indexes,
+            frames: nearest.frames,
+        };
+        scenes.push((scene, size));
+    } else {
+        for size in sizes.sizes {
+            for &moving_pct in sizes.moving {
+                for &camera in sizes.cameras {
+                    let scene = Scene {
+                        entities: size.entities,
+                        moving_pct,
+                        camera,
+                    };
+                    scenes.push((scene, *size));
+                }
             }
         }
     }
