@@ -15,7 +15,8 @@
 //! (the culling system alone; a false negative is a failure), `lights` (the shadow views'
 //! culling against bevy_light's; a missing caster is a failure), `picking` (per-ray time of
 //! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure), `sync` (the
-//! trees' upkeep per frame for each index choice) and `scenery` (streaming static scenery in
+//! trees' upkeep per frame for each index choice, against the least any upkeep of the same
+//! movers costs) and `scenery` (streaming static scenery in
 //! and out against plain Bevy; an entity lost or kept is a failure). More suites of the core
 //! crate: `geometry` (the cost of one geometric test, against its f64 error), `structures`
 //! (the loose octree and the uniform grid against the dynamic BVH, the quadtree against
