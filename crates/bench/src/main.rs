@@ -118,7 +118,9 @@ fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
                 opts.compute_threads = Some(n);
             }
             "--scene" => {
-                opts.frame_scene = Some(args.next().ok_or("--scene needs N/PCT/CAMERA")?);
+                let scene = args.next().ok_or("--scene needs N/PCT/CAMERA")?;
+                suites::frame::parse_scene(&scene)?;
+                opts.frame_scene = Some(scene);
             }
             "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
             "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),

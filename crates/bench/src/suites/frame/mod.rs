@@ -162,8 +162,9 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
         .collect()
 }
 
-/// One scene of `--scene N/PCT/CAMERA[/INDEX]`, and the index asked for with it.
-fn parse_scene(text: &str) -> Result<(Scene, Option<IndexChoice>), String> {
+/// One scene of `--scene N/PCT/CAMERA[/INDEX]`, and the index asked for with it (its
+/// place in [`IndexChoice::ALL`]). The argument parser calls it to refuse a bad scene early.
+pub fn parse_scene(text: &str) -> Result<(Scene, Option<usize>), String> {
     let parts: Vec<&str> = text.split('/').collect();
     let bad = || format!("--scene wants N/PCT/CAMERA[/INDEX], not {text:?}");
     if !(3..=4).contains(&parts.len()) {
@@ -184,8 +185,8 @@ fn parse_scene(text: &str) -> Result<(Scene, Option<IndexChoice>), String> {
         None => None,
         Some(name) => Some(
             IndexChoice::ALL
-                .into_iter()
-                .find(|i| format!("{i:?}").eq_ignore_ascii_case(name))
+                .iter()
+                .position(|i| format!("{i:?}").eq_ignore_ascii_case(name))
                 .ok_or_else(bad)?,
         ),
     };
@@ -204,23 +205,14 @@ pub fn run(opts: &Options) -> Report {
     let sizes = if quick { QUICK } else { FULL };
     let mut scenes: Vec<(Scene, Size)> = Vec::new();
     if let Some(text) = &opts.frame_scene {
-        let (scene, index) = match parse_scene(text) {
-            Ok(parsed) => parsed,
-            Err(e) => {
-                eprintln!("{e}");
-                std::process::exit(2);
-            }
-        };
+        let (scene, index) = parse_scene(text).expect("checked when the arguments were parsed");
         let nearest = sizes
             .sizes
             .iter()
             .min_by_key(|s| s.entities.abs_diff(scene.entities))
             .expect("every run has a size");
         let indexes: &'static [IndexChoice] = match index {
-            Some(i) => IndexChoice::ALL
-                .iter()
-                .position(|&c| c == i)
-                .map_or(nearest.indexes, |p| &IndexChoice::ALL[p..=p]),
+            Some(p) => &IndexChoice::ALL[p..=p],
             None => nearest.indexes,
         };
         let size = Size {
