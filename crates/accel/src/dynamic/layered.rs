@@ -147,8 +147,15 @@ impl<D: DynamicIndex> RayWalk for LayeredIndex<D> {
     }
 }
 
-/// Keeps the `k` nearest of two lists each sorted by distance then id, in the same order.
-fn merge_nearest(a: Vec<(u32, f32)>, b: Vec<(u32, f32)>, k: usize) -> Vec<(u32, f32)> {
+/// Keeps the `k` nearest of two lists each sorted by distance then id, in the same order:
+/// how an index of several layers answers [`SpatialQuery::nearest_k`] from theirs.
+///
+/// ```
+/// use accel::dynamic::merge_nearest;
+/// let merged = merge_nearest(vec![(1, 0.5), (2, 4.0)], vec![(7, 1.0)], 2);
+/// assert_eq!(merged, vec![(1, 0.5), (7, 1.0)]);
+/// ```
+pub fn merge_nearest(a: Vec<(u32, f32)>, b: Vec<(u32, f32)>, k: usize) -> Vec<(u32, f32)> {
     let mut out = Vec::with_capacity(k.min(a.len() + b.len()));
     let (mut a, mut b) = (a.into_iter().peekable(), b.into_iter().peekable());
     while out.len() < k {

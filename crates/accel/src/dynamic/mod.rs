@@ -77,7 +77,7 @@ mod validate;
 
 pub use config::DynamicBvhConfig;
 pub use handle::{DynamicBvhError, LeafHandle};
-pub use layered::LayeredIndex;
+pub use layered::{LayeredIndex, merge_nearest};
 pub use optimize::OptimizeReport;
 pub use pair::StaticDynamicPair;
 pub use prepared_static::PreparedStatic;

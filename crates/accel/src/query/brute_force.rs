@@ -2,6 +2,7 @@
 //! against, and the right index for a handful of objects.
 
 use super::dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
+use super::flat_loops;
 use super::views::{ViewClassification, ViewMasks};
 use super::{BoundingTree, NodeView, RayWalk, SpatialQuery};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
@@ -202,96 +203,56 @@ impl DynamicIndex for BruteForceIndex {
 
 impl RayWalk for BruteForceIndex {
     /// Every entry whose box the ray enters within its current range, in storage order.
-    fn walk_ray<V>(&self, ray: &mut Ray, mut visit: V)
+    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        // The oracle turns untraceable rays away as the trees do (see `Ray::is_traceable`).
-        if !ray.is_traceable() {
-            return;
-        }
-        for (id, b) in self.entries() {
-            if ray.intersect_aabb(b).is_some() && visit(id, ray).is_break() {
-                return;
-            }
-        }
+        let _ = flat_loops::walk_ray(self.entries(), ray, visit);
     }
 }
 
 impl SpatialQuery for BruteForceIndex {
-    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, mut visit: F)
+    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        for (id, b) in self.entries() {
-            if b.intersects_aabb(aabb) && visit(id).is_break() {
-                return;
-            }
-        }
+        flat_loops::overlapping_aabb(self.entries(), aabb, visit);
     }
 
-    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, mut visit: F)
+    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        for (id, b) in self.entries() {
-            if sphere.intersects_aabb(b) && visit(id).is_break() {
-                return;
-            }
-        }
+        flat_loops::overlapping_sphere(self.entries(), sphere, visit);
     }
 
-    fn for_each_containing_point<F>(&self, point: Vec3A, mut visit: F)
+    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        for (id, b) in self.entries() {
-            if b.contains_point(point) && visit(id).is_break() {
-                return;
-            }
-        }
+        flat_loops::containing_point(self.entries(), point, visit);
     }
 
-    fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
+    fn for_each_in_frustum<F>(&self, frustum: &Frustum, visit: F)
     where
         F: FnMut(u32, Containment),
     {
-        for (id, b) in self.entries() {
-            match frustum.classify_aabb(b) {
-                Containment::Outside => {}
-                c => visit(id, c),
-            }
-        }
+        flat_loops::in_frustum(self.entries(), frustum, visit);
     }
 
-    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
+    fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
     where
         C: FnMut(&Aabb, u32) -> ViewClassification,
         F: FnMut(u32, ViewMasks),
     {
-        if views == 0 {
-            return;
-        }
-        for (id, b) in self.entries() {
-            if let Some(masks) = ViewMasks::undecided(views).below(classify(b, views)) {
-                visit(id, masks);
-            }
-        }
+        flat_loops::in_views(self.entries(), views, classify, visit);
     }
 
-    fn nearest_k<F>(&self, _point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
+    fn nearest_k<F>(&self, _point: Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>
     where
         F: FnMut(u32) -> f32,
     {
-        let mut all: Vec<(u32, f32)> = self
-            .ids
-            .iter()
-            .map(|&id| (id, distance_squared(id)))
-            .filter(|(_, d2)| !d2.is_nan())
-            .collect();
-        all.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        all.truncate(k);
-        all
+        flat_loops::nearest_k(self.ids.iter().copied(), k, distance_squared)
     }
 }
 

@@ -19,13 +19,16 @@
 //! - [`TriangleQuery`]: exact ray hits and overlap on one mesh's triangles.
 //! - [`BruteForceIndex`] and [`BruteForceMesh`]: flat lists answering every query by testing
 //!   everything, the oracles of the conformance suite (`crates/accel/tests/conformance`),
-//!   which every structure runs.
+//!   which every structure runs; [`KeyedList`], a flat list found by the caller's keys, for
+//!   objects that move every frame.
 
 mod brute_force;
 mod brute_force_mesh;
 mod dynamic_index;
+mod flat_loops;
 mod index_advisor;
 mod index_choice;
+mod keyed_list;
 mod nodes;
 pub mod ray_walk;
 mod stack;
@@ -41,6 +44,7 @@ pub(crate) use brute_force_mesh::mesh_triangles;
 pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 pub use index_advisor::{IndexAdvice, IndexAdvisor, IndexWorkload};
 pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
+pub use keyed_list::{KeyedEntry, KeyedList};
 pub use nodes::{NodeView, visit_tree_nodes};
 pub(crate) use nodes::{count as node_entry_count, visit_levels};
 pub use ray_walk::RayWalk;

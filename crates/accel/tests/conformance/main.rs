@@ -26,7 +26,9 @@ use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
 use accel::dynamic::{DynamicBvh, LayeredIndex, StaticDynamicPair};
 use accel::kdtree::{KdBuild, KdTree, KdTreeConfig};
 use accel::mesh::{MeshBvh, SpatialSplits};
-use accel::query::{AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind};
+use accel::query::{
+    AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind, KeyedList,
+};
 use accel::{Aabb, BuildConfig, Bvh, SplitStrategy};
 use accel_testkit::{BoxScene, Rng, box_scene};
 use edits::check_edits;
@@ -62,6 +64,19 @@ fn scenes() -> Vec<Scene> {
 
 fn boxes_of(entries: &[(u32, Aabb)]) -> Vec<Aabb> {
     entries.iter().map(|&(_, b)| b).collect()
+}
+
+#[test]
+fn the_keyed_list_of_movers() {
+    for (scene, entries, seed) in scenes() {
+        let mut list = KeyedList::new();
+        // Keys spread and out of order, as entity indices are; ids are the scene's.
+        for (i, &(id, b)) in entries.iter().enumerate().rev() {
+            list.insert(i as u32 * 5 + 2, 7, id, b, 0).unwrap();
+        }
+        list.validate().unwrap();
+        check_queries(&format!("KeyedList, {scene}"), &list, &entries, seed);
+    }
 }
 
 #[test]
