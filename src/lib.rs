@@ -68,7 +68,10 @@ pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::{AccelCullingPlugin, AccelCullingSettings};
-pub use index::{AutomaticIndexSettings, AutomaticIndexStats, EntityIndex, IndexChoice};
+pub use index::{
+    AutomaticIndexSettings, AutomaticIndexStats, BusyMoverSettings, BusyMovers, EntityIndex,
+    IndexChoice,
+};
 #[cfg(feature = "sprite_picking")]
 pub use picking::AccelSpritePickingPlugin;
 #[cfg(feature = "picking")]
@@ -83,7 +86,9 @@ use bevy::transform::TransformSystems;
 
 /// The most used items.
 pub mod prelude {
-    pub use crate::index::{AutomaticIndexSettings, BvhIndexSettings, IndexChoice};
+    pub use crate::index::{
+        AutomaticIndexSettings, BusyMoverSettings, BusyMovers, BvhIndexSettings, IndexChoice,
+    };
     pub use crate::{
         AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
         AccelTracked, AccelTrees, StaticTreeBuild,
@@ -119,6 +124,8 @@ impl Plugin for AccelPlugin {
             .register_type::<StaticTreeBuild>()
             .register_type::<index::BvhIndexSettings>()
             .register_type::<index::AutomaticIndexSettings>()
+            .register_type::<index::BusyMoverSettings>()
+            .register_type::<index::BusyMovers>()
             .register_type::<AccelIgnore>()
             .register_type::<AccelStatic>()
             .register_type::<AccelTracked>()

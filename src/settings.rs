@@ -1,6 +1,6 @@
 //! Runtime settings of the plugin.
 
-use crate::index::{AutomaticIndexSettings, BvhIndexSettings, IndexChoice};
+use crate::index::{AutomaticIndexSettings, BusyMoverSettings, BvhIndexSettings, IndexChoice};
 use bevy::prelude::*;
 use core::time::Duration;
 
@@ -54,6 +54,8 @@ pub struct AccelSettings {
     pub bvh: BvhIndexSettings,
     /// The thresholds of [`IndexChoice::Automatic`].
     pub automatic: AutomaticIndexSettings,
+    /// When entities that move frame after frame leave the dynamic index for a flat list.
+    pub busy_movers: BusyMoverSettings,
 }
 
 impl Default for AccelSettings {
@@ -69,6 +71,7 @@ impl Default for AccelSettings {
             static_build: StaticTreeBuild::default(),
             bvh: BvhIndexSettings::default(),
             automatic: AutomaticIndexSettings::default(),
+            busy_movers: BusyMoverSettings::default(),
         }
     }
 }

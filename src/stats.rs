@@ -36,8 +36,11 @@ pub struct AccelStats {
     /// [`AccelTrees::count_rays`], as `AccelRayCast` counts its own), averaged over about ten
     /// frames: what the ray snapshot and picking's slot mesh table are kept for.
     pub rays_per_frame: f32,
-    /// Entities in the dynamic index.
+    /// Dynamic entities: those in the dynamic index and the busy movers.
     pub dynamic_entities: usize,
+    /// Busy movers: dynamic entities kept in a flat list while they move frame after frame
+    /// ([`BusyMoverSettings`](crate::BusyMoverSettings)).
+    pub busy_movers: usize,
     /// Entities in the static tree.
     pub static_entities: usize,
     /// The structure holding the moving entities (never
@@ -92,7 +95,8 @@ pub(crate) fn publish_stats(
 ) {
     if trees.is_changed() {
         let index = trees.query();
-        stats.dynamic_entities = index.dynamic_len();
+        stats.busy_movers = index.busy_movers().len();
+        stats.dynamic_entities = index.dynamic_len() + stats.busy_movers;
         stats.static_entities = trees.static_len();
         stats.static_waiting = trees.static_waiting_len();
         stats.static_build_in_flight = trees.static_build_in_flight();

@@ -7,12 +7,14 @@
 
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
 use crate::index::AutomaticIndex;
+use crate::index::BusyMoverSettings;
 use crate::prefetch::{for_each_prefetched_in_two_stages, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::{AccelTrees, LocalFrame, Placed};
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::ecs::entity::EntityHashSet;
+use bevy::math::Affine3A;
 use bevy::prelude::*;
 use std::time::Instant;
 
@@ -57,6 +59,26 @@ pub(crate) fn add_membership_observers(app: &mut App) {
         .add_observer(queue_membership_check::<Remove>);
 }
 
+/// Where an entity is: its world box, and what its own space is taken from.
+pub(crate) struct Placement {
+    /// The entity's `Aabb` in world space.
+    pub(crate) world: accel::Aabb,
+    affine: Affine3A,
+    local: accel::Aabb,
+}
+
+impl Placement {
+    /// The entity's own space. Taken on demand: a busy mover's sync needs only the box, and
+    /// the inverse is a fifth of a mover's placement.
+    pub(crate) fn frame(&self) -> LocalFrame {
+        // Inverted as Bevy's `MeshRayCast` does for each ray, so local rays match its own.
+        LocalFrame {
+            local_from_world: self.affine.inverse(),
+            local_bounds: self.local,
+        }
+    }
+}
+
 /// The world box and own space of an entity, or why it has none. Non-finite or singular
 /// transforms would put NaN or infinities into the tree (a NaN box hides its whole subtree
 /// from every query), so they are refused here and the entity stays out until its transform
@@ -64,7 +86,7 @@ pub(crate) fn add_membership_observers(app: &mut App) {
 pub(crate) fn placement(
     aabb: &BevyAabb,
     transform: &GlobalTransform,
-) -> Result<(accel::Aabb, LocalFrame), &'static str> {
+) -> Result<Placement, &'static str> {
     let affine = transform.affine();
     let det = affine.matrix3.determinant();
     if !det.is_finite() || !affine.translation.is_finite() {
@@ -81,12 +103,11 @@ pub(crate) fn placement(
     if !world.is_finite() {
         return Err("its world bounds overflow");
     }
-    // Inverted as Bevy's `MeshRayCast` does for each ray, so local rays match its own.
-    let frame = LocalFrame {
-        local_from_world: affine.inverse(),
-        local_bounds: local,
-    };
-    Ok((world, frame))
+    Ok(Placement {
+        world,
+        affine,
+        local,
+    })
 }
 
 type MembershipQuery<'w, 's> = Query<
@@ -140,6 +161,9 @@ pub(crate) fn sync_trees(
     // nor the trees change).
     let tree_state = trees.bypass_change_detection();
     tree_state.clear_assigned_slots();
+    let busy = &settings.busy_movers;
+    let busy_on = busy.wanted(tree_state.busy_enabled(), stats.moved, stats.rays_per_frame);
+    tree_state.begin_busy_frame(busy_on, busy.transfers_per_frame);
     let target = automatic.resolve(settings.index);
     let landed = tree_state.advance_index_switch(target, settings.index_switch_in_frame_up_to);
     let switched = landed.is_some();
@@ -219,6 +243,7 @@ pub(crate) fn sync_trees(
             place_moved(true),
         );
     }
+    settle_quiet_busy_movers(tree_state, &mut rejected, &membership, busy, &mut counts);
     let static_rebuilt = tree_state.advance_static(
         settings.static_rebuild_in_frame_up_to,
         settings.static_build,
@@ -254,7 +279,11 @@ fn place_checked(
     counts: &mut SyncCounts,
 ) {
     match placement(aabb, gt) {
-        Ok((bounds, frame)) => match trees.place(entity, bounds, frame, is_static) {
+        Ok(at) => match (!is_static)
+            .then(|| trees.move_busy(entity, at.world))
+            .flatten()
+            .unwrap_or_else(|| trees.place(entity, at.world, at.frame(), is_static))
+        {
             // Reported like a bad transform: once, until the entity fits again.
             Placed::Refused(why) => reject(rejected, entity, why),
             Placed::Evicted(why) => {
@@ -279,6 +308,40 @@ fn place_checked(
         Err(why) => {
             counts.removed += trees.remove(entity) as usize;
             reject(rejected, entity, why);
+        }
+    }
+}
+
+/// Puts the busy movers that stopped moving back into the dynamic index, a sweep's worth a
+/// frame (all of them, over frames, once movers may not be busy).
+fn settle_quiet_busy_movers(
+    trees: &mut AccelTrees,
+    rejected: &mut RejectedEntities,
+    membership: &MembershipQuery,
+    busy: &BusyMoverSettings,
+    counts: &mut SyncCounts,
+) {
+    let mut quiet = Vec::new();
+    trees.quiet_busy_movers(busy.quiet_frames, busy.checks(trees.busy_len()), &mut quiet);
+    for entity in quiet {
+        let now = membership
+            .get(entity)
+            .ok()
+            .and_then(|(aabb, gt, ..)| Some((aabb?, gt?)));
+        let settled = match now.map(|(aabb, gt)| placement(aabb, gt)) {
+            Some(Ok(at)) => trees.settle_busy(entity, at.world, at.frame()),
+            // Gone or invalid since its last move: its membership check or its next move
+            // says so too; out it goes.
+            _ => {
+                trees.remove(entity);
+                false
+            }
+        };
+        if settled {
+            counts.updated += 1;
+        } else {
+            counts.removed += 1;
+            reject(rejected, entity, "the dynamic index refused it back");
         }
     }
 }

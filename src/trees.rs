@@ -3,7 +3,7 @@
 use crate::index::EntityIndex;
 pub use crate::local_frame::LocalFrame;
 use crate::prefetch::prefetch_all;
-use crate::scenery::{StaticScenery, StaticSwap};
+use crate::scenery::StaticScenery;
 use accel::dynamic::DynamicBvh;
 use accel::query::{AnyHandle, IndexError};
 use accel::{Aabb, Bvh};
@@ -20,6 +20,9 @@ pub enum TreeSlot {
     /// Static, and held in the dynamic index under this handle until the next static tree,
     /// built off the frame, takes it in (see [`AccelTrees::static_waiting_len`]).
     StaticWaiting(AnyHandle),
+    /// Moving frame after frame: among the busy movers, a flat list outside the dynamic
+    /// index ([`EntityIndex::busy_movers`], [`BusyMoverSettings`](crate::BusyMoverSettings)).
+    Busy,
 }
 
 /// What the sync writes for a slot each time its entity moves, and what a ray's candidate
@@ -53,6 +56,24 @@ impl SlotEntry {
         entity: None,
         frame: LocalFrame::NONE,
     };
+
+    /// The record of a busy mover's slot: its box lives in the busy movers' list, and its
+    /// own space is not kept (the sync would have to write it for every move, which is what
+    /// the list exists to avoid). The NaN box marks it, and hides it from any test that
+    /// reads it by mistake.
+    const fn busy(entity: Entity) -> Self {
+        Self {
+            min: [f32::NAN; 3],
+            max: [f32::NAN; 3],
+            entity: Some(entity),
+            frame: LocalFrame::NONE,
+        }
+    }
+
+    #[inline]
+    fn is_busy(&self) -> bool {
+        self.min[0].is_nan()
+    }
 
     fn new(entity: Entity, bounds: Aabb, frame: LocalFrame) -> Self {
         Self {
@@ -99,6 +120,26 @@ fn refusal(e: IndexError) -> &'static str {
         IndexError::CapacityExceeded => "the dynamic index is full",
         IndexError::StaleHandle => "the dynamic index lost its entry",
     }
+}
+
+/// The busy movers' tag of an entity, kept with its entry: the list's key is the entity's
+/// index, which Bevy reuses.
+#[inline]
+fn busy_tag(entity: Entity) -> u32 {
+    entity.generation().to_bits()
+}
+
+/// What the sync asks of the busy movers this frame (see [`AccelTrees::begin_busy_frame`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct BusyFrame {
+    /// Whether movers may join the list.
+    enabled: bool,
+    /// The frame's number, stamped on each busy move.
+    stamp: u32,
+    /// Entities that may still join or leave the list this frame.
+    transfers_left: usize,
+    /// Where the next search for quiet entries starts.
+    sweep_from: usize,
 }
 
 /// A tracked entity's record, kept at its entity index.
@@ -157,6 +198,8 @@ pub struct AccelTrees {
     /// Rays cast through `AccelRayCast` (and other users of [`Self::count_rays`]) since the
     /// last maintenance: what decides whether the dynamic tree's ray snapshot is worth refitting.
     rays_cast: AtomicU32,
+    /// This frame's rules for the busy movers.
+    busy: BusyFrame,
 }
 
 impl AccelTrees {
@@ -184,9 +227,16 @@ impl AccelTrees {
     /// The exact world box of the entity in a slot (the trees hold fattened boxes).
     #[inline]
     pub fn world_bounds(&self, slot: u32) -> Aabb {
-        self.slots
-            .get(slot as usize)
-            .map_or(Aabb::EMPTY, SlotEntry::bounds)
+        match self.slots.get(slot as usize) {
+            Some(entry) if entry.is_busy() => entry.entity.map_or(Aabb::EMPTY, |entity| {
+                self.index
+                    .busy_movers()
+                    .get(entity.index_u32(), busy_tag(entity))
+                    .map_or(Aabb::EMPTY, |e| e.bounds)
+            }),
+            Some(entry) => entry.bounds(),
+            None => Aabb::EMPTY,
+        }
     }
 
     /// The slot and tree of a tracked entity.
@@ -217,10 +267,23 @@ impl AccelTrees {
         (t.entity == entity).then_some(t)
     }
 
-    /// The entity's own space in a slot (meaningless for a free slot).
+    /// The entity's own space in a slot (meaningless for a free slot); `None` for a busy
+    /// mover ([`TreeSlot::Busy`]), whose own space is not kept: take it from its
+    /// `GlobalTransform` and `Aabb`.
     #[inline]
     pub fn local_frame(&self, slot: u32) -> Option<&LocalFrame> {
-        self.slots.get(slot as usize).map(|s| &s.frame)
+        self.slots
+            .get(slot as usize)
+            .filter(|s| !s.is_busy())
+            .map(|s| &s.frame)
+    }
+
+    /// Whether the entity in a slot is a busy mover ([`TreeSlot::Busy`]).
+    #[inline]
+    pub fn is_busy(&self, slot: u32) -> bool {
+        self.slots
+            .get(slot as usize)
+            .is_some_and(SlotEntry::is_busy)
     }
 
     /// The entity in each slot, indexed by slot (`None` for free slots): for passes over many
@@ -313,6 +376,12 @@ impl AccelTrees {
                         return Placed::Same;
                     }
                     self.pending_upkeep = true;
+                    if self.busy.enabled && self.busy.transfers_left > 0 {
+                        self.busy.transfers_left -= 1;
+                        if let Some(placed) = self.make_busy(entity, t.slot, h, bounds) {
+                            return placed;
+                        }
+                    }
                     match self.index.update(h, bounds) {
                         Ok(true) => Placed::Moved,
                         Ok(false) => Placed::Unchanged,
@@ -330,6 +399,14 @@ impl AccelTrees {
                         }
                     }
                 }
+                (TreeSlot::Busy, false) => match self.move_busy(entity, bounds) {
+                    Some(placed) => placed,
+                    None => {
+                        error!("bevy_accel: {entity} lost its busy entry; re-inserting it");
+                        self.remove(entity);
+                        moved(self.place(entity, bounds, frame, false))
+                    }
+                },
                 (TreeSlot::Static | TreeSlot::StaticWaiting(_), true)
                     if self.slots[t.slot as usize].bounds() == bounds =>
                 {
@@ -386,7 +463,12 @@ impl AccelTrees {
     /// [`prefetch_placement`](Self::prefetch_placement), the step after). A hint only.
     #[inline]
     pub(crate) fn prefetch_record(&self, entity: Entity) {
-        if let Some(record) = self.tracked_by_index.get(entity.index_u32() as usize) {
+        let busy = self.index.busy_movers();
+        // With busy movers about, most movers are among them and need only their position
+        // by key: the tracked record would be a line read for nothing.
+        if !busy.is_empty() {
+            busy.prefetch_key(entity.index_u32());
+        } else if let Some(record) = self.tracked_by_index.get(entity.index_u32() as usize) {
             prefetch_all(record);
         }
     }
@@ -403,6 +485,14 @@ impl AccelTrees {
     /// arrived.
     #[inline]
     pub(crate) fn prefetch_placement(&self, entity: Entity) {
+        let busy = self.index.busy_movers();
+        if busy
+            .position(entity.index_u32(), busy_tag(entity))
+            .is_some()
+        {
+            busy.prefetch_entry(entity.index_u32());
+            return;
+        }
         let Some(t) = self.tracked(entity) else {
             return;
         };
@@ -437,6 +527,15 @@ impl AccelTrees {
                 error!("bevy_accel: removing {entity} from the dynamic index failed: {e}");
             }
         }
+        if t.tree == TreeSlot::Busy
+            && self
+                .index
+                .busy_movers_mut()
+                .remove(entity.index_u32(), busy_tag(entity))
+                .is_none()
+        {
+            error!("bevy_accel: {entity} was not among the busy movers");
+        }
         self.vacate(t);
         true
     }
@@ -446,7 +545,7 @@ impl AccelTrees {
         if let TreeSlot::StaticWaiting(_) = t.tree {
             self.static_waiting -= 1;
         }
-        if let TreeSlot::Dynamic(_) = t.tree {
+        if let TreeSlot::Dynamic(_) | TreeSlot::Busy = t.tree {
             self.release_slot(t.slot);
         } else {
             // The static tree (or one being built) may hold the slot: cleared, it reports
@@ -466,110 +565,6 @@ impl AccelTrees {
         self.free_slots.push(slot);
     }
 
-    /// Brings the static tree up to date with the static set, in the frame or off it (see
-    /// `scenery`): lands a build that finished, or starts one. True when a new static tree
-    /// was swapped in. The static tree is built over slot-indexed boxes (empty slots are
-    /// left out by the builder), so its primitive ids are slots, like the dynamic index's.
-    pub(crate) fn advance_static(
-        &mut self,
-        in_frame_up_to: usize,
-        strategy: crate::StaticTreeBuild,
-    ) -> bool {
-        let swap = self.scenery.advance(in_frame_up_to, strategy);
-        let built_in_frame = swap.as_ref().is_some_and(|swap| swap.built_in_frame);
-        let swapped = swap.is_some();
-        if let Some(swap) = swap {
-            self.swap_static(swap);
-        }
-        let fresh = core::mem::take(&mut self.fresh_static);
-        if !built_in_frame {
-            // No tree holds this frame's newcomers yet: they wait in the dynamic index.
-            for slot in fresh {
-                self.index_waiting_static(slot);
-            }
-        }
-        swapped
-    }
-
-    /// Puts a static newcomer placed this frame, if still tracked in `slot`, into the dynamic
-    /// index until a static tree holds it.
-    fn index_waiting_static(&mut self, slot: u32) {
-        let Some(entity) = self.entities_by_slot[slot as usize] else {
-            return;
-        };
-        let bounds = self.slots[slot as usize].bounds();
-        let Some(Some(record)) = self.tracked_by_index.get_mut(entity.index_u32() as usize) else {
-            return;
-        };
-        if record.slot != slot || record.tree != TreeSlot::Static {
-            return;
-        }
-        match self.index.insert(slot, bounds) {
-            Ok(handle) => {
-                record.tree = TreeSlot::StaticWaiting(handle);
-                self.static_waiting += 1;
-                self.pending_upkeep = true;
-            }
-            // The static tree takes boxes the dynamic index refuses (a fat box that would
-            // overflow): this one is found once the tree being built lands.
-            Err(e) => warn!("bevy_accel: {entity} waits for the next static tree ({e})"),
-        }
-    }
-
-    /// Waits for the static tree being built off the frame, if any, and swaps it in: for
-    /// tests, and for a loading screen that wants every static entity in the static tree
-    /// before play. True when a tree was swapped in.
-    pub fn finish_static_build(&mut self) -> bool {
-        match self.scenery.finish() {
-            Some(swap) => {
-                self.swap_static(swap);
-                true
-            }
-            None => false,
-        }
-    }
-
-    fn swap_static(&mut self, swap: StaticSwap) {
-        let old = self.index.set_static_prepared(swap.prepared);
-        crate::scenery::free_off_the_frame(old);
-        self.free_slots.extend(swap.freed);
-        for slot in swap.newcomers {
-            // A newcomer that left meanwhile has a cleared slot; one still here leaves the
-            // dynamic index, since the new tree holds it.
-            let Some(entity) = self.entities_by_slot[slot as usize] else {
-                continue;
-            };
-            let record = &mut self.tracked_by_index[entity.index_u32() as usize];
-            if let Some(Tracked { tree, .. }) = record
-                && let TreeSlot::StaticWaiting(handle) = *tree
-            {
-                *tree = TreeSlot::Static;
-                self.static_waiting -= 1;
-                self.pending_upkeep = true;
-                if let Err(e) = self.index.remove(handle) {
-                    error!("bevy_accel: moving {entity} into the static tree failed: {e}");
-                }
-            }
-        }
-    }
-
-    /// Number of static entities, those in the static tree and those waiting in the dynamic
-    /// index for the next one.
-    pub fn static_len(&self) -> usize {
-        self.scenery.len()
-    }
-
-    /// Static entities held in the dynamic index until the static tree being built (or the
-    /// next one) takes them in. Queries find them all the same.
-    pub fn static_waiting_len(&self) -> usize {
-        self.static_waiting
-    }
-
-    /// Whether a static tree is being built off the frame.
-    pub fn static_build_in_flight(&self) -> bool {
-        self.scenery.building()
-    }
-
     /// Takes out the entities a new index refused during a switch: their records still name
     /// the old index's handles, which that index took with it.
     fn untrack_refused(&mut self, refused: &[(Entity, &'static str)]) {
@@ -587,6 +582,12 @@ impl AccelTrees {
 #[cfg(test)]
 #[path = "trees_tests.rs"]
 mod tests;
+
+#[path = "trees_busy.rs"]
+mod busy;
+
+#[path = "trees_static.rs"]
+mod static_scenery;
 
 #[path = "trees_switch.rs"]
 mod switch;

@@ -9,9 +9,8 @@
 //! to log anything) and the structures are swapped.
 
 use super::{AccelTrees, TreeSlot, refusal};
-use crate::index::{EntityIndex, IndexChoice};
+use crate::index::IndexChoice;
 use accel::Aabb;
-use accel::dynamic::PreparedStatic;
 use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};
@@ -91,8 +90,7 @@ impl AccelTrees {
     /// what its later edits will do, so the switch leaves it as it would be after a run, and
     /// a switch is a rare, user-driven event.
     pub(crate) fn switch_index(&mut self, choice: IndexChoice) -> Vec<(Entity, &'static str)> {
-        let static_tree = self.index.take_static();
-        self.index = EntityIndex::new(choice, static_tree);
+        self.index.reset_dynamic(choice);
         self.pending_upkeep = true;
         let mut refused = Vec::new();
         for record in self.tracked_by_index.iter_mut().flatten() {
@@ -168,9 +166,7 @@ impl AccelTrees {
         for (_, handle) in filled.into_iter().flatten() {
             let _ = dynamic.remove(handle);
         }
-        let mut index = EntityIndex::with_dynamic(dynamic);
-        index.set_static_prepared(self.index.set_static_prepared(PreparedStatic::default()));
-        let old = core::mem::replace(&mut self.index, index);
+        let old = self.index.swap_dynamic(dynamic);
         debug_assert_eq!(self.index.choice(), target);
         // Freeing a structure of a million entries takes milliseconds; the pool pays them.
         match AsyncComputeTaskPool::try_get() {

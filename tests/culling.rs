@@ -201,6 +201,11 @@ fn visible_sets_equal_bevys_while_the_plugin_pauses() {
 }
 
 #[test]
+fn visible_sets_equal_bevys_with_busy_movers() {
+    check_camera_paths(Variant::BusyMovers);
+}
+
+#[test]
 fn visible_sets_equal_bevys_while_culling_leaves_the_trees() {
     check_camera_paths(Variant::BevyPass(6..15));
 }
@@ -217,6 +222,9 @@ enum Variant {
     /// `AccelCullingSettings::use_trees` off over these frames: Bevy's per-entity pass decides
     /// while the trees keep following the entities.
     BevyPass(std::ops::Range<usize>),
+    /// Every mover kept in the busy movers' flat list, quiet ones back in the index after
+    /// two frames.
+    BusyMovers,
 }
 
 fn check_camera_paths(variant: Variant) {
@@ -227,6 +235,16 @@ fn check_camera_paths(variant: Variant) {
         .world_mut()
         .resource_mut::<AccelSettings>()
         .require_marker = marked;
+    if variant == Variant::BusyMovers {
+        accel_app
+            .world_mut()
+            .resource_mut::<AccelSettings>()
+            .busy_movers = BusyMoverSettings {
+            mode: BusyMovers::On,
+            quiet_frames: 2,
+            ..default()
+        };
+    }
     let a = populate(&mut bevy_app, 3, marked);
     let b = populate(&mut accel_app, 3, marked);
     assert_eq!(a.len(), b.len());
@@ -259,6 +277,7 @@ fn check_camera_paths(variant: Variant) {
     let mut rng_path = Rng::from_state(5);
     let (mut flat_views, mut tree_views, mut accepted_whole, mut reused_walks) = (0, 0, 0, 0);
     let mut flat_views_on_trees = 0;
+    let mut busy_seen = 0;
     let mut step: Vec<(Vec3, Vec3, f32)> = cams.clone();
     let paused = match &variant {
         Variant::Paused(frames) => frames.clone(),
@@ -356,6 +375,7 @@ fn check_camera_paths(variant: Variant) {
             bevy_lists.iter().any(|l| !l.is_empty()),
             "the camera path must see something"
         );
+        busy_seen = busy_seen.max(accel_app.world().resource::<AccelStats>().busy_movers);
         let stats = accel_app.world().resource::<CullingStats>();
         if bevy_pass.contains(&frame) {
             // Off the trees, every view takes Bevy's own pass without the trees' word.
@@ -370,6 +390,11 @@ fn check_camera_paths(variant: Variant) {
         accepted_whole += stats.accepted_by_subtree;
         reused_walks += stats.reused_walks;
     }
+    assert_eq!(
+        busy_seen > 0,
+        variant == Variant::BusyMovers,
+        "busy movers: {busy_seen}"
+    );
     assert!(reused_walks > 0, "still frames must reuse the last walk");
     // Both the tree traversal and the flat pass (views that saw most of the world) ran; the
     // narrow view keeps the tree path busy every frame.

@@ -214,8 +214,26 @@ fn light_views(app: &mut App) -> (Views, Vec<bool>) {
 
 #[test]
 fn light_views_equal_bevys_over_moving_lights() {
+    check_light_views(BusyMovers::Off);
+}
+
+#[test]
+fn light_views_equal_bevys_with_busy_movers() {
+    check_light_views(BusyMovers::On);
+}
+
+fn check_light_views(busy: BusyMovers) {
     let mut bevy_app = app(false);
     let mut accel_app = app(true);
+    accel_app
+        .world_mut()
+        .resource_mut::<AccelSettings>()
+        .busy_movers = BusyMoverSettings {
+        mode: busy,
+        quiet_frames: 2,
+        ..default()
+    };
+    let mut busy_seen = 0;
     let parents = [populate(&mut bevy_app, 9), populate(&mut accel_app, 9)];
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
@@ -267,6 +285,7 @@ fn light_views_equal_bevys_over_moving_lights() {
             }
             app.update();
         }
+        busy_seen = busy_seen.max(accel_app.world().resource::<AccelStats>().busy_movers);
         let stats = accel_app.world().resource::<CullingStats>();
         reused += stats.reused_light_walks;
         flat += stats.flat_light_views;
@@ -307,6 +326,11 @@ fn light_views_equal_bevys_over_moving_lights() {
             "frame {frame}: ViewVisibility differs for {differing} casters ({only_bevy} visible only in Bevy's app)"
         );
     }
+    assert_eq!(
+        busy_seen > 0,
+        busy == BusyMovers::On,
+        "busy movers: {busy_seen}"
+    );
     assert!(seen > 0, "the lights must see casters");
     assert!(reused > 0, "still frames must keep the lights' walks");
     assert!(flat > 0, "the far-reaching lights must take the flat pass");

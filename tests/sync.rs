@@ -27,12 +27,22 @@ fn bvh(trees: &AccelTrees) -> &DynamicBvh {
 
 /// The scenario below moves static entities too, so it asks the plugin to watch them.
 /// `static_rebuild_in_frame_up_to` 0 sends every static rebuild but the first off the frame.
-fn app_watching_statics(index: IndexChoice, static_rebuild_in_frame_up_to: usize) -> App {
+fn app_watching_statics(
+    index: IndexChoice,
+    static_rebuild_in_frame_up_to: usize,
+    busy: BusyMovers,
+) -> App {
     let mut app = App::new();
     let settings = AccelSettings {
         watch_static_motion: true,
         index,
         static_rebuild_in_frame_up_to,
+        busy_movers: BusyMoverSettings {
+            mode: busy,
+            // Short, so that entities leave the list within the scenario too.
+            quiet_frames: 3,
+            ..default()
+        },
         ..Default::default()
     };
     app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
@@ -93,6 +103,17 @@ fn check_consistency(app: &mut App) {
             TreeSlot::Dynamic(_) | TreeSlot::StaticWaiting(_) | TreeSlot::Static => {
                 assert_eq!(trees.world_bounds(slot), world_box)
             }
+            TreeSlot::Busy => {
+                assert!(trees.is_busy(slot));
+                assert!(trees.local_frame(slot).is_none());
+                assert_eq!(trees.world_bounds(slot), world_box);
+                let entry = trees
+                    .query()
+                    .busy_movers()
+                    .get(e.index_u32(), e.generation().to_bits())
+                    .expect("a busy mover has its entry");
+                assert_eq!(entry.id, slot);
+            }
         }
         // Whatever the index, a query over the entity's box reports its slot, once.
         let mut seen = 0;
@@ -113,6 +134,16 @@ fn check_consistency(app: &mut App) {
             assert_eq!(trees.world_bounds(slot), bevy_accel::accel::Aabb::EMPTY);
         }
     }
+    trees.query().busy_movers().validate().unwrap();
+    let busy = trees
+        .iter()
+        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Busy)
+        .count();
+    assert_eq!(
+        trees.busy_len(),
+        busy,
+        "busy movers listed but not tracked as such"
+    );
     let n_static = trees
         .iter()
         .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static)
@@ -138,9 +169,75 @@ fn plugin_builds_and_runs_on_an_empty_world() {
 fn thousands_of_entities_spawned_moved_reparented_and_despawned() {
     // Every index, and the index switched to the next choice every 25 frames.
     for index in IndexChoice::ALL {
-        churn(index, false, 4_096);
+        churn(index, false, 4_096, BusyMovers::Off);
     }
-    churn(IndexChoice::Bvh, true, 4_096);
+    churn(IndexChoice::Bvh, true, 4_096, BusyMovers::Off);
+}
+
+#[test]
+fn busy_movers_join_and_leave_the_flat_list_through_churn() {
+    // Busy movers beside each index, and the index switched under them.
+    for index in [IndexChoice::Bvh, IndexChoice::Grid, IndexChoice::Octree] {
+        churn(index, false, 4_096, BusyMovers::On);
+    }
+    churn(IndexChoice::Bvh, true, 0, BusyMovers::On);
+}
+
+#[test]
+fn busy_movers_go_back_to_the_index_when_quiet_or_switched_off() {
+    let settings = AccelSettings {
+        busy_movers: BusyMoverSettings {
+            mode: BusyMovers::On,
+            quiet_frames: 4,
+            transfers_per_frame: 50,
+            checks_per_frame: 1_000,
+            ..default()
+        },
+        ..default()
+    };
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    let mut rng = Rng::from_state(5);
+    let entities: Vec<Entity> = (0..400)
+        .map(|_| {
+            let t = Transform::from_translation(rng.vec3(-100.0, 100.0));
+            app.world_mut().spawn((t, unit_aabb())).id()
+        })
+        .collect();
+    let busy_len = |app: &App| app.world().resource::<AccelTrees>().busy_len();
+    let step = |app: &mut App, movers: &[Entity], rng: &mut Rng| {
+        for &e in movers {
+            let world = app.world_mut();
+            world.get_mut::<Transform>(e).unwrap().translation += rng.vec3(-1.0, 1.0);
+        }
+        app.update();
+        check_consistency(app);
+    };
+    app.update();
+    assert_eq!(busy_len(&app), 0, "nothing moved yet");
+    // 300 movers join 50 a frame (the transfer budget), the rest stay in the index.
+    let movers = &entities[..300];
+    for frame in 1..=8 {
+        step(&mut app, movers, &mut rng);
+        assert_eq!(busy_len(&app), (50 * frame).min(300), "frame {frame}");
+    }
+    // A third stop: they leave after the quiet frames, the others stay.
+    for _ in 0..12 {
+        step(&mut app, &movers[100..], &mut rng);
+    }
+    assert_eq!(busy_len(&app), 200);
+    let stats = app.world().resource::<AccelStats>();
+    assert_eq!(stats.busy_movers, 200);
+    assert_eq!(stats.dynamic_entities, 400);
+    // Switched off, the list empties at the transfer budget though everything moves.
+    app.world_mut()
+        .resource_mut::<AccelSettings>()
+        .busy_movers
+        .mode = BusyMovers::Off;
+    for frame in 1..=4 {
+        step(&mut app, movers, &mut rng);
+        assert_eq!(busy_len(&app), 200 - (50 * frame).min(200), "frame {frame}");
+    }
 }
 
 #[test]
@@ -264,12 +361,12 @@ fn a_large_index_switch_is_filled_off_the_frame_and_lands_up_to_date() {
 fn static_scenery_streams_in_and_out_through_builds_off_the_frame() {
     // Static newcomers wait in the dynamic index and leavers' slots stay cleared while the
     // static tree is rebuilt on the async compute pool; queries see the same entities.
-    churn(IndexChoice::Bvh, false, 0);
-    churn(IndexChoice::Grid, true, 0);
+    churn(IndexChoice::Bvh, false, 0, BusyMovers::Off);
+    churn(IndexChoice::Grid, true, 0, BusyMovers::Off);
 }
 
-fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize) {
-    let mut app = app_watching_statics(index, static_rebuild_in_frame_up_to);
+fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize, busy: BusyMovers) {
+    let mut app = app_watching_statics(index, static_rebuild_in_frame_up_to, busy);
     let mut rng = Rng::from_state(7);
     let mut parents = Vec::new();
     for _ in 0..20 {
@@ -281,6 +378,7 @@ fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize)
     }
     let mut live: Vec<Entity> = Vec::new();
     let mut built_off_the_frame = 0;
+    let mut busy_seen = 0;
     for frame in 0..120 {
         let world = app.world_mut();
         // Spawn: some free, some children of a moving parent, some static, some ignored.
@@ -345,6 +443,14 @@ fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize)
                     .id(),
             );
         }
+        if busy == BusyMovers::On && frame % 30 == 29 {
+            // Off and on again: the list empties into the index, then fills.
+            let mut settings = app.world_mut().resource_mut::<AccelSettings>();
+            settings.busy_movers.mode = match settings.busy_movers.mode {
+                BusyMovers::On => BusyMovers::Off,
+                _ => BusyMovers::On,
+            };
+        }
         if switch && frame % 25 == 24 {
             let mut settings = app.world_mut().resource_mut::<AccelSettings>();
             // Through every choice in turn.
@@ -362,7 +468,13 @@ fn churn(index: IndexChoice, switch: bool, static_rebuild_in_frame_up_to: usize)
             fixed => assert_eq!(stats.index, fixed),
         }
         built_off_the_frame += usize::from(stats.static_build_in_flight);
+        busy_seen = busy_seen.max(stats.busy_movers);
     }
+    assert_eq!(
+        busy_seen > 0,
+        busy == BusyMovers::On,
+        "busy movers: {busy_seen}"
+    );
     // The first load is built in its frame; later changes go off it only past the setting.
     assert_eq!(built_off_the_frame > 0, static_rebuild_in_frame_up_to == 0);
     assert!(app.world().resource::<AccelTrees>().len() > 2000);

@@ -121,7 +121,7 @@ mod tests {
                 // Flat boxes (a quad's): no extent along one local axis.
                 aabb.half_extents[i / 3 % 3] = 0.0;
             }
-            let Ok((world, _)) = placement(&aabb, &transform) else {
+            let Ok(world) = placement(&aabb, &transform).map(|at| at.world) else {
                 continue;
             };
             let normal = Vec3A::from(rng.vec3(-1.0, 1.0).normalize());

@@ -1,7 +1,6 @@
 //! The BVH backend's own settings, stats and upkeep: fat leaves, the optimiser's rebuilds,
 //! and the policy that keeps a 16-wide snapshot of the dynamic tree for rays.
 
-use super::EntityIndex;
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::AccelTrees;
@@ -209,10 +208,7 @@ fn with_pair<R>(
     trees: &mut ResMut<AccelTrees>,
     work: impl FnOnce(&mut StaticDynamicPair) -> R,
 ) -> Option<R> {
-    match trees.index_mut() {
-        EntityIndex::Bvh(pair) => Some(work(pair)),
-        EntityIndex::Layered(_) => None,
-    }
+    trees.index_mut().bvh_pair_mut().map(work)
 }
 
 /// Installs, builds or rebuilds the dynamic tree's ray snapshot as the settings ask; touches

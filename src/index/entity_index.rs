@@ -3,36 +3,48 @@
 
 use super::IndexChoice;
 use accel::dynamic::{
-    DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair,
+    DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair, merge_nearest,
 };
 use accel::query::views::{ViewClassification, ViewMasks};
 use accel::query::{
-    AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, NodeView, RayWalk,
+    AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, KeyedList, NodeView,
+    RayWalk,
 };
 use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use bevy::math::Vec3A;
+use core::cell::Cell;
 use core::ops::ControlFlow;
 
-/// The static tree and the dynamic index over the tracked entities, queried as one
-/// [`SpatialQuery`] whose primitive ids are slots (see
+/// The static tree, the dynamic index and the busy movers over the tracked entities,
+/// queried as one [`SpatialQuery`] whose primitive ids are slots (see
 /// [`AccelTrees`](crate::AccelTrees)).
 ///
 /// Which structure holds the moving entities is [`AccelSettings::index`](crate::AccelSettings::index);
 /// the static entities are always in a static BVH, since they are built once and never
-/// refit.
+/// refit. Entities that move frame after frame may leave that structure for a flat list, the
+/// *busy movers* ([`BusyMoverSettings`](crate::BusyMoverSettings)), which every query tests
+/// after the trees.
 ///
-/// Why two variants rather than one generic layer: the BVH backend fuses the static tree
-/// and the dynamic BVH into one tree ([`StaticDynamicPair`]), so a closest hit in either
+/// Why two kinds of layers rather than one generic layer: the BVH backend fuses the static
+/// tree and the dynamic BVH into one tree ([`StaticDynamicPair`]), so a closest hit in either
 /// prunes the other's walk from the root down, and keeps a 16-wide snapshot of the dynamic
 /// tree for rays; every other structure answers beside the static tree
 /// ([`LayeredIndex`]).
+#[derive(Debug)]
+pub struct EntityIndex {
+    layers: Layers,
+    /// Busy movers, keyed by entity index, their ids slots.
+    busy: KeyedList,
+}
+
+/// The trees of an [`EntityIndex`].
 #[derive(Debug)]
 #[expect(
     clippy::large_enum_variant,
     reason = "one index per world, queried in hot loops: a box would add a pointer chase to \
               every query to save a few hundred bytes once"
 )]
-pub enum EntityIndex {
+enum Layers {
     /// The dynamic BVH, fused with the static tree.
     Bvh(StaticDynamicPair),
     /// Any other dynamic index of the core, beside the static tree.
@@ -48,17 +60,15 @@ impl Default for EntityIndex {
 /// Runs `$body` on whichever query structure `$index` is, bound to `$inner`.
 macro_rules! on_layers {
     ($index:expr, $inner:ident => $body:expr) => {
-        match $index {
-            EntityIndex::Bvh($inner) => $body,
-            EntityIndex::Layered($inner) => $body,
+        match &$index.layers {
+            Layers::Bvh($inner) => $body,
+            Layers::Layered($inner) => $body,
         }
     };
 }
 
-impl EntityIndex {
-    /// An empty dynamic index of the chosen kind over `static_tree`; the BVH for
-    /// [`IndexChoice::Automatic`], which starts there.
-    pub fn new(choice: IndexChoice, static_tree: Bvh) -> Self {
+impl Layers {
+    fn new(choice: IndexChoice, static_tree: Bvh) -> Self {
         match choice.kind() {
             None | Some(IndexKind::DynamicBvh) => {
                 Self::Bvh(StaticDynamicPair::new(static_tree, DynamicBvh::new()))
@@ -67,20 +77,46 @@ impl EntityIndex {
         }
     }
 
-    /// A filled dynamic structure under an empty static tree (swap one in with
-    /// [`set_static_prepared`](Self::set_static_prepared)).
-    pub(crate) fn with_dynamic(dynamic: AnyIndex) -> Self {
+    fn with_dynamic(dynamic: AnyIndex) -> Self {
         match dynamic {
             AnyIndex::DynamicBvh(bvh) => Self::Bvh(StaticDynamicPair::new(Bvh::default(), bvh)),
             other => Self::Layered(LayeredIndex::new(Bvh::default(), other)),
         }
     }
+}
+
+impl EntityIndex {
+    /// An empty dynamic index of the chosen kind over `static_tree`; the BVH for
+    /// [`IndexChoice::Automatic`], which starts there.
+    pub fn new(choice: IndexChoice, static_tree: Bvh) -> Self {
+        Self {
+            layers: Layers::new(choice, static_tree),
+            busy: KeyedList::new(),
+        }
+    }
+
+    /// Replaces the dynamic index with an empty one of the chosen kind, keeping the static
+    /// tree and the busy movers.
+    pub(crate) fn reset_dynamic(&mut self, choice: IndexChoice) {
+        let static_tree = self.take_static();
+        self.layers = Layers::new(choice, static_tree);
+    }
+
+    /// Swaps in a filled dynamic structure, keeping the static tree and the busy movers;
+    /// returns the old structure, to be freed where it costs the frame nothing.
+    pub(crate) fn swap_dynamic(&mut self, dynamic: AnyIndex) -> impl Send + 'static {
+        let mut layers = Layers::with_dynamic(dynamic);
+        let prepared = self.set_static_prepared(PreparedStatic::default());
+        core::mem::swap(&mut self.layers, &mut layers);
+        self.set_static_prepared(prepared);
+        layers
+    }
 
     /// Which structure holds the moving entities.
     pub fn choice(&self) -> IndexChoice {
-        match self {
-            Self::Bvh(_) => IndexChoice::Bvh,
-            Self::Layered(layers) => IndexChoice::of_kind(layers.dynamic().kind()),
+        match &self.layers {
+            Layers::Bvh(_) => IndexChoice::Bvh,
+            Layers::Layered(layers) => IndexChoice::of_kind(layers.dynamic().kind()),
         }
     }
 
@@ -91,20 +127,54 @@ impl EntityIndex {
 
     /// Replaces the static tree with one prepared off the frame, returning the old one.
     pub(crate) fn set_static_prepared(&mut self, prepared: PreparedStatic) -> PreparedStatic {
-        on_layers!(self, layers => layers.set_static_prepared(prepared))
+        match &mut self.layers {
+            Layers::Bvh(pair) => pair.set_static_prepared(prepared),
+            Layers::Layered(layers) => layers.set_static_prepared(prepared),
+        }
     }
 
     /// Takes the static tree out, leaving an empty one.
     pub(crate) fn take_static(&mut self) -> Bvh {
-        on_layers!(self, layers => layers.set_static(Bvh::default()))
+        match &mut self.layers {
+            Layers::Bvh(pair) => pair.set_static(Bvh::default()),
+            Layers::Layered(layers) => layers.set_static(Bvh::default()),
+        }
     }
 
     /// The BVH backend's pair, when the BVH is the choice.
     pub fn bvh_pair(&self) -> Option<&StaticDynamicPair> {
-        match self {
-            Self::Bvh(pair) => Some(pair),
-            Self::Layered(_) => None,
+        match &self.layers {
+            Layers::Bvh(pair) => Some(pair),
+            Layers::Layered(_) => None,
         }
+    }
+
+    /// The BVH backend's pair, for its upkeep, when the BVH is the choice.
+    pub(crate) fn bvh_pair_mut(&mut self) -> Option<&mut StaticDynamicPair> {
+        match &mut self.layers {
+            Layers::Bvh(pair) => Some(pair),
+            Layers::Layered(_) => None,
+        }
+    }
+
+    /// The dynamic index of another kind than the BVH, for its upkeep.
+    pub(crate) fn layered_dynamic_mut(&mut self) -> Option<&mut AnyIndex> {
+        match &mut self.layers {
+            Layers::Bvh(_) => None,
+            Layers::Layered(layers) => Some(layers.dynamic_mut()),
+        }
+    }
+
+    /// The busy movers: entities that moved in each of the last frames, kept flat out of
+    /// the dynamic index (see [`BusyMoverSettings`](crate::BusyMoverSettings)). Their ids
+    /// are slots; their keys, entity indices.
+    pub fn busy_movers(&self) -> &KeyedList {
+        &self.busy
+    }
+
+    /// The busy movers, for the sync.
+    pub(crate) fn busy_movers_mut(&mut self) -> &mut KeyedList {
+        &mut self.busy
     }
 
     /// The dynamic BVH, when the BVH is the choice.
@@ -120,19 +190,19 @@ impl EntityIndex {
             .is_some_and(StaticDynamicPair::has_dynamic_ray_snapshot)
     }
 
-    /// Entities held by the dynamic index.
+    /// Entities held by the dynamic index (the busy movers not included).
     pub fn dynamic_len(&self) -> usize {
-        match self {
-            Self::Bvh(pair) => pair.dynamic().len(),
-            Self::Layered(layers) => layers.dynamic().len(),
+        match &self.layers {
+            Layers::Bvh(pair) => pair.dynamic().len(),
+            Layers::Layered(layers) => layers.dynamic().len(),
         }
     }
 
     /// The dynamic index's shape and cost, in O(1).
     pub fn dynamic_stats(&self) -> IndexStats {
-        match self {
-            Self::Bvh(pair) => pair.dynamic().index_stats(),
-            Self::Layered(layers) => layers.dynamic().index_stats(),
+        match &self.layers {
+            Layers::Bvh(pair) => pair.dynamic().index_stats(),
+            Layers::Layered(layers) => layers.dynamic().index_stats(),
         }
     }
 
@@ -143,16 +213,17 @@ impl EntityIndex {
         depths: core::ops::RangeInclusive<u32>,
         visit: &mut dyn FnMut(NodeView) -> ControlFlow<()>,
     ) -> ControlFlow<()> {
-        match self {
-            Self::Bvh(pair) => pair.dynamic().visit_nodes(depths, visit),
-            Self::Layered(layers) => layers.dynamic().visit_nodes(depths, visit),
+        match &self.layers {
+            Layers::Bvh(pair) => pair.dynamic().visit_nodes(depths, visit),
+            Layers::Layered(layers) => layers.dynamic().visit_nodes(depths, visit),
         }
     }
 
-    /// A box around everything both layers hold (the dynamic index's fat or loose boxes
-    /// included): O(1) for the trees, a pass over the occupied cells for the grid.
+    /// A box around everything the layers hold (the dynamic index's fat or loose boxes
+    /// included): O(1) for the trees, a pass over the occupied cells for the grid and over
+    /// the busy movers.
     pub fn bounds(&self) -> Aabb {
-        let mut bounds = self.static_tree().bounds();
+        let mut bounds = self.static_tree().bounds().union(&self.busy.bounds());
         let _ = self.visit_dynamic_nodes(0..=0, &mut |node| {
             bounds = bounds.union(&node.bounds);
             ControlFlow::Continue(())
@@ -162,12 +233,12 @@ impl EntityIndex {
 
     /// Adds a moving entity's slot with its world box.
     pub(crate) fn insert(&mut self, slot: u32, bounds: Aabb) -> Result<AnyHandle, IndexError> {
-        match self {
-            Self::Bvh(pair) => pair
+        match &mut self.layers {
+            Layers::Bvh(pair) => pair
                 .dynamic_mut()
                 .insert(slot, bounds)
                 .map(AnyHandle::DynamicBvh),
-            Self::Layered(layers) => layers.dynamic_mut().insert(slot, bounds),
+            Layers::Layered(layers) => layers.dynamic_mut().insert(slot, bounds),
         }
     }
 
@@ -175,20 +246,20 @@ impl EntityIndex {
     /// difference (the box stayed inside its fat leaf or loose cell).
     #[inline]
     pub(crate) fn update(&mut self, handle: AnyHandle, bounds: Aabb) -> Result<bool, IndexError> {
-        match (self, handle) {
+        match (&mut self.layers, handle) {
             // Through the pair, so that the dynamic tree's ray snapshot is refit instead of
             // dropped.
-            (Self::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.update_dynamic(h, bounds),
-            (Self::Layered(layers), h) => layers.dynamic_mut().update(h, bounds),
+            (Layers::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.update_dynamic(h, bounds),
+            (Layers::Layered(layers), h) => layers.dynamic_mut().update(h, bounds),
             _ => Err(IndexError::StaleHandle),
         }
     }
 
     /// Takes a moving entity out.
     pub(crate) fn remove(&mut self, handle: AnyHandle) -> Result<u32, IndexError> {
-        match (self, handle) {
-            (Self::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.dynamic_mut().remove(h),
-            (Self::Layered(layers), h) => layers.dynamic_mut().remove(h),
+        match (&mut self.layers, handle) {
+            (Layers::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.dynamic_mut().remove(h),
+            (Layers::Layered(layers), h) => layers.dynamic_mut().remove(h),
             _ => Err(IndexError::StaleHandle),
         }
     }
@@ -196,9 +267,9 @@ impl EntityIndex {
     /// Asks for what an [`update`](Self::update) of this entry reads first. A hint only.
     #[inline]
     pub(crate) fn prefetch_entry(&self, handle: AnyHandle) {
-        match (self, handle) {
-            (Self::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.dynamic().prefetch_leaf(h),
-            (Self::Layered(layers), h) => layers.dynamic().prefetch_entry(h),
+        match (&self.layers, handle) {
+            (Layers::Bvh(pair), AnyHandle::DynamicBvh(h)) => pair.dynamic().prefetch_leaf(h),
+            (Layers::Layered(layers), h) => layers.dynamic().prefetch_entry(h),
             _ => {}
         }
     }
@@ -206,7 +277,7 @@ impl EntityIndex {
     /// Applies the BVH backend's settings to its dynamic tree (the other backends have none
     /// yet). Touches the tree only when they differ.
     pub(crate) fn configure_bvh(&mut self, config: DynamicBvhConfig) {
-        if let Self::Bvh(pair) = self
+        if let Layers::Bvh(pair) = &mut self.layers
             && *pair.dynamic().config() != config
         {
             pair.dynamic_mut().set_config(config);
@@ -214,74 +285,115 @@ impl EntityIndex {
     }
 }
 
+/// Runs a visitor through the trees, then through the busy movers unless the trees' walk
+/// stopped: one ray's range, shortened by a hit in the trees, bounds the list's tests too.
+macro_rules! then_busy {
+    ($self:expr, $visit:ident, $walk:ident ( $($arg:expr),* )) => {{
+        let stopped = Cell::new(false);
+        let mut $visit = |p: u32, r: &mut Ray| {
+            let flow = $visit(p, r);
+            stopped.set(flow.is_break());
+            flow
+        };
+        on_layers!($self, layers => layers.$walk($($arg,)* &mut $visit));
+        if !stopped.get() && !$self.busy.is_empty() {
+            $self.busy.$walk($($arg,)* &mut $visit);
+        }
+    }};
+}
+
 impl RayWalk for EntityIndex {
     #[inline]
-    fn walk_ray<V>(&self, ray: &mut Ray, visit: V)
+    fn walk_ray<V>(&self, ray: &mut Ray, mut visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.walk_ray(ray, visit))
+        then_busy!(self, visit, walk_ray(ray));
     }
 
     #[inline]
-    fn walk_ray_any_order<V>(&self, ray: &mut Ray, visit: V)
+    fn walk_ray_any_order<V>(&self, ray: &mut Ray, mut visit: V)
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.walk_ray_any_order(ray, visit))
+        then_busy!(self, visit, walk_ray_any_order(ray));
     }
 
     #[inline]
-    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, announce: A, visit: V)
+    fn walk_ray_announcing<A, V>(&self, ray: &mut Ray, mut announce: A, mut visit: V)
     where
         A: FnMut(u32),
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.walk_ray_announcing(ray, announce, visit))
+        then_busy!(self, visit, walk_ray_announcing(ray, &mut announce));
     }
 }
 
+/// Runs a visitor that may stop through the trees, then through the busy movers unless it
+/// stopped.
+macro_rules! then_busy_until_break {
+    ($self:expr, $visit:ident, $walk:ident ( $($arg:expr),* )) => {{
+        let stopped = Cell::new(false);
+        let mut $visit = |p: u32| {
+            let flow = $visit(p);
+            stopped.set(flow.is_break());
+            flow
+        };
+        on_layers!($self, layers => layers.$walk($($arg,)* &mut $visit));
+        if !stopped.get() && !$self.busy.is_empty() {
+            $self.busy.$walk($($arg,)* &mut $visit);
+        }
+    }};
+}
+
 impl SpatialQuery for EntityIndex {
-    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, visit: F)
+    fn for_each_overlapping_aabb<F>(&self, aabb: &Aabb, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.for_each_overlapping_aabb(aabb, visit))
+        then_busy_until_break!(self, visit, for_each_overlapping_aabb(aabb));
     }
 
-    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
+    fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.for_each_overlapping_sphere(sphere, visit))
+        then_busy_until_break!(self, visit, for_each_overlapping_sphere(sphere));
     }
 
-    fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
+    fn for_each_containing_point<F>(&self, point: Vec3A, mut visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        on_layers!(self, layers => layers.for_each_containing_point(point, visit))
+        then_busy_until_break!(self, visit, for_each_containing_point(point));
     }
 
-    fn for_each_in_frustum<F>(&self, frustum: &Frustum, visit: F)
+    fn for_each_in_frustum<F>(&self, frustum: &Frustum, mut visit: F)
     where
         F: FnMut(u32, Containment),
     {
-        on_layers!(self, layers => layers.for_each_in_frustum(frustum, visit))
+        on_layers!(self, layers => layers.for_each_in_frustum(frustum, &mut visit));
+        self.busy.for_each_in_frustum(frustum, visit);
     }
 
-    fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
+    fn for_each_in_views<C, F>(&self, views: u32, mut classify: C, mut visit: F)
     where
         C: FnMut(&Aabb, u32) -> ViewClassification,
         F: FnMut(u32, ViewMasks),
     {
-        on_layers!(self, layers => layers.for_each_in_views(views, classify, visit))
+        on_layers!(self, layers => layers.for_each_in_views(views, &mut classify, &mut visit));
+        self.busy.for_each_in_views(views, classify, visit);
     }
 
-    fn nearest_k<F>(&self, point: Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>
+    fn nearest_k<F>(&self, point: Vec3A, k: usize, mut distance_squared: F) -> Vec<(u32, f32)>
     where
         F: FnMut(u32) -> f32,
     {
-        on_layers!(self, layers => layers.nearest_k(point, k, distance_squared))
+        let trees = on_layers!(self, layers => layers.nearest_k(point, k, &mut distance_squared));
+        if self.busy.is_empty() {
+            return trees;
+        }
+        let busy = self.busy.nearest_k(point, k, distance_squared);
+        merge_nearest(trees, busy, k)
     }
 }

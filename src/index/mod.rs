@@ -9,14 +9,18 @@
 //! - `bvh_backend`: the BVH's settings, stats and upkeep (its ray snapshot policy).
 //! - `upkeep`: the per-frame maintenance system, and the switch between structures.
 //! - `automatic`: [`IndexChoice::Automatic`], the structure chosen from the workload.
+//! - `busy_movers`: when entities that move frame after frame leave the structure for a
+//!   flat list ([`BusyMoverSettings`]).
 
 mod automatic;
+mod busy_movers;
 mod bvh_backend;
 mod entity_index;
 mod upkeep;
 
 pub(crate) use automatic::{AutomaticIndex, advise_index};
 pub use automatic::{AutomaticIndexSettings, AutomaticIndexStats};
+pub use busy_movers::{BusyMoverSettings, BusyMovers};
 pub use bvh_backend::{BvhIndexSettings, BvhIndexStats};
 pub use entity_index::EntityIndex;
 pub(crate) use upkeep::maintain_index;

@@ -1,6 +1,5 @@
 //! The per-frame upkeep of whichever index holds the moving entities.
 
-use super::EntityIndex;
 use super::bvh_backend::{RayTraffic, dynamic_config, maintain_bvh};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
@@ -30,13 +29,12 @@ pub(crate) fn maintain_index(
     stats.rays_per_frame = traffic.rays;
     let start = Instant::now();
     let edited = trees.bypass_change_detection().take_pending_upkeep();
-    match trees.query() {
-        EntityIndex::Bvh(_) => maintain_bvh(&settings.bvh, &mut trees, &mut stats, &traffic),
-        EntityIndex::Layered(_) => {
-            stats.bvh = None;
-            if edited && let EntityIndex::Layered(layers) = trees.index_mut() {
-                stats.last_upkeep = layers.dynamic_mut().maintain(settings.upkeep_budget());
-            }
+    if trees.query().bvh_pair().is_some() {
+        maintain_bvh(&settings.bvh, &mut trees, &mut stats, &traffic);
+    } else {
+        stats.bvh = None;
+        if edited && let Some(dynamic) = trees.index_mut().layered_dynamic_mut() {
+            stats.last_upkeep = dynamic.maintain(settings.upkeep_budget());
         }
     }
     stats.maintain_time = start.elapsed();

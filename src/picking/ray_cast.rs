@@ -3,12 +3,13 @@
 use crate::meshes::{
     AccelMeshCache, CachedMesh, MeshShape, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
+use crate::sync::placement;
 use crate::{AccelTrees, LocalFrame};
 use accel::query::ray_walk::closest_hit_announcing;
 use accel::{
     Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
 };
-use bevy::camera::primitives::Frustum;
+use bevy::camera::primitives::{Aabb as BevyAabb, Frustum};
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
 use bevy::ecs::entity::Entities;
 use bevy::ecs::system::SystemParam;
@@ -131,6 +132,9 @@ pub struct AccelRayCast<'w, 's> {
     mesh_targets: Query<'w, 's, MeshTargetData, MeshFilter>,
     mesh_hits: Query<'w, 's, MeshHitData, MeshFilter>,
     bounds_targets: Query<'w, 's, BoundsTargetData>,
+    /// Busy movers' rows: their own space is not kept in the trees (see
+    /// [`AccelTrees::local_frame`]).
+    busy_rows: Query<'w, 's, (Read<BevyAabb>, Read<GlobalTransform>)>,
     hits: Local<'s, Vec<PendingHit>>,
     output: Local<'s, Vec<(Entity, RayMeshHit)>>,
     batch_output: Local<'s, Vec<(usize, Entity, RayMeshHit)>>,
@@ -289,9 +293,15 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             mesh_targets,
             mesh_hits,
             bounds_targets,
+            busy_rows,
             hits,
             ..
         } = self;
+        // A busy mover's own space, from its rows as the sync placed it.
+        let busy_frame = |entity: Entity| {
+            let (aabb, gt) = busy_rows.get(entity).ok()?;
+            placement(aabb, gt).ok().map(|at| at.frame())
+        };
         hits.clear();
         trees.count_rays(1);
         // A NaN or negative `max_distance` gives an empty range: the ray hits nothing.
@@ -331,7 +341,14 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     // exact world box first: the oriented box lies inside it, and the static
                     // trees' boxes are those boxes already (rays at 10^5 entities ran a little
                     // faster without it: docs/experiments.md, Picking).
-                    let frame = trees.local_frame(slot)?;
+                    let busy;
+                    let frame = match trees.local_frame(slot) {
+                        Some(frame) => frame,
+                        None => {
+                            busy = busy_frame(entity)?;
+                            &busy
+                        }
+                    };
                     let local = r.transformed(&frame.local_from_world);
                     let entry = local.intersect_aabb(&frame.local_bounds)?;
                     let hit = if let Some(SlotMeshLookup::Mesh {
@@ -370,7 +387,14 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     if !counts(entity, inherited, view) {
                         return None;
                     }
-                    let frame = trees.local_frame(slot)?;
+                    let busy;
+                    let frame = match trees.local_frame(slot) {
+                        Some(frame) => frame,
+                        None => {
+                            busy = busy_frame(entity)?;
+                            &busy
+                        }
+                    };
                     let local = r.transformed(&frame.local_from_world);
                     let hit = box_hit(frame, r, &local)?;
                     (entity, entry, hit)
