@@ -40,6 +40,8 @@ pub enum Contender {
     Bevy,
     /// The plugins with the movers in this index.
     Accel(IndexChoice),
+    /// The same with the busy movers' flat list off: every mover in the index.
+    AccelBusyOff(IndexChoice),
     /// The same with Bevy's gizmos (`GizmoPlugin`) added, which the overlays draw with.
     AccelGizmos(IndexChoice),
     /// The same with Bevy's gizmos and `AccelOverlaysPlugin`, every overlay off.
@@ -57,6 +59,7 @@ impl Contender {
             Self::Floor => "floor".into(),
             Self::Bevy => "bevy".into(),
             Self::Accel(index) => format!("accel/{index:?}"),
+            Self::AccelBusyOff(index) => format!("accel/{index:?}-busy-off"),
             Self::AccelGizmos(index) => format!("accel/{index:?}+gizmos"),
             Self::AccelOverlaysOff(index) => format!("accel/{index:?}+gizmos+overlays-off"),
             Self::AccelEgui(index) => format!("accel/{index:?}+egui"),
@@ -69,6 +72,7 @@ impl Contender {
         matches!(
             self,
             Self::Accel(_)
+                | Self::AccelBusyOff(_)
                 | Self::AccelGizmos(_)
                 | Self::AccelOverlaysOff(_)
                 | Self::AccelEgui(_)
@@ -209,6 +213,7 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
         .add_plugins(bevy_accel::panel::AccelPanelPlugin);
     }
     if let Contender::Accel(index)
+    | Contender::AccelBusyOff(index)
     | Contender::AccelGizmos(index)
     | Contender::AccelOverlaysOff(index)
     | Contender::AccelEgui(index)
@@ -222,6 +227,14 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
                     // second of frames; its thresholds are the defaults.
                     automatic: bevy_accel::AutomaticIndexSettings {
                         hold_frames: 10,
+                        ..default()
+                    },
+                    busy_movers: BusyMoverSettings {
+                        mode: if matches!(contender, Contender::AccelBusyOff(_)) {
+                            BusyMovers::Off
+                        } else {
+                            BusyMovers::default()
+                        },
                         ..default()
                     },
                     ..default()

@@ -254,6 +254,8 @@ pub fn run(opts: &Options) -> Report {
         progress.step(&name);
         let mut contenders = vec![Contender::Floor, Contender::Bevy];
         contenders.extend(size.indexes.iter().map(|&i| Contender::Accel(i)));
+        // The default choice as it was before the busy movers' list: what the list changes.
+        contenders.push(Contender::AccelBusyOff(IndexChoice::Automatic));
         if overlays_off {
             contenders.extend([
                 Contender::AccelGizmos(IndexChoice::Bvh),

@@ -8,7 +8,8 @@
 //! step), for each index choice, and for the BVH with and without the optimiser's per-frame
 //! budget (`AccelSettings::upkeep_budget_micros`, a setting rather than refit work); the
 //! whole-frame scene's size and share, 1M entities with a quarter moving, for the BVH, the
-//! grid and the flat list; and the idle frames: every entity static, and every entity dynamic
+//! grid and the flat list; the busy movers' list beside the BVH in both (every other row has
+//! it off, so that it gives the index's own upkeep); and the idle frames: every entity static, and every entity dynamic
 //! with nothing moving (what Bevy's `Changed` scan costs us).
 //!
 //! The peer, in each moving scene: the *floor* (`floor.rs`), an app whose one system does the
@@ -185,17 +186,44 @@ fn bvh_quality(s: &SyncApp) -> Option<f64> {
 /// One contender of a moving scene: its label, setting and app (no settings: the floor).
 type Contender = (String, &'static str, Option<AccelSettings>);
 
-/// The contenders of the 100k scene: every index, the BVH with and without its optimiser.
+/// Every mover in `index`: the busy movers' list off, so that each row is the index's own
+/// upkeep.
+fn in_index(index: IndexChoice) -> AccelSettings {
+    AccelSettings {
+        index,
+        busy_movers: BusyMoverSettings {
+            mode: BusyMovers::Off,
+            ..default()
+        },
+        ..default()
+    }
+}
+
+/// The movers in the busy movers' list, the rest in the BVH.
+fn busy_movers() -> Contender {
+    let settings = AccelSettings {
+        index: IndexChoice::Bvh,
+        busy_movers: BusyMoverSettings {
+            mode: BusyMovers::On,
+            ..default()
+        },
+        ..default()
+    };
+    ("busy movers".into(), "beside the BVH", Some(settings))
+}
+
+/// The contenders of the 100k scene: every index, the BVH with and without its optimiser,
+/// and the busy movers.
 fn every_index() -> Vec<Contender> {
     let no_optimiser = AccelSettings {
         upkeep_budget_micros: 0,
-        ..default()
+        ..in_index(IndexChoice::Bvh)
     };
     let mut contenders: Vec<Contender> = vec![
         (
             "Bvh".into(),
             "optimiser budget 0.5 ms",
-            Some(AccelSettings::default()),
+            Some(in_index(IndexChoice::Bvh)),
         ),
         ("Bvh".into(), "no optimiser", Some(no_optimiser)),
     ];
@@ -204,26 +232,19 @@ fn every_index() -> Vec<Contender> {
         IndexChoice::Grid,
         IndexChoice::BruteForce,
     ] {
-        contenders.push((
-            format!("{index:?}"),
-            "",
-            Some(AccelSettings { index, ..default() }),
-        ));
+        contenders.push((format!("{index:?}"), "", Some(in_index(index))));
     }
+    contenders.push(busy_movers());
     contenders
 }
 
-/// The contenders of the 1M scene: the indexes the whole-frame suite runs at that size.
+/// The contenders of the 1M scene: the indexes the whole-frame suite runs at that size, and
+/// the busy movers.
 fn large_indexes() -> Vec<Contender> {
     [IndexChoice::Bvh, IndexChoice::Grid, IndexChoice::BruteForce]
         .into_iter()
-        .map(|index| {
-            (
-                format!("{index:?}"),
-                "",
-                Some(AccelSettings { index, ..default() }),
-            )
-        })
+        .map(|index| (format!("{index:?}"), "", Some(in_index(index))))
+        .chain([busy_movers()])
         .collect()
 }
 
