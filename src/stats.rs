@@ -19,6 +19,9 @@ pub struct AccelStats {
     /// Dynamic entities whose box the sync wrote this frame, whether or not a structure
     /// changed (a move inside a fat leaf or a loose cell counts here, not in `updated`).
     pub moved: usize,
+    /// Of [`moved`](Self::moved), the busy movers' moves: written to their flat list, not
+    /// to the dynamic index.
+    pub busy_moved: usize,
     /// Entities currently left out for a bad transform or box.
     pub rejected: usize,
     /// True when a new static tree was swapped in this frame (built in the frame or off it).

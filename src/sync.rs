@@ -248,6 +248,10 @@ pub(crate) fn sync_trees(
         settings.static_rebuild_in_frame_up_to,
         settings.static_build,
     );
+    let index_edits = counts.inserted + counts.removed + counts.updated - counts.busy_moved;
+    if index_edits > 0 || static_rebuilt || switched {
+        tree_state.note_index_changed();
+    }
     if counts.inserted + counts.updated + counts.removed > 0 || static_rebuilt || switched {
         trees.set_changed();
     }
@@ -256,6 +260,7 @@ pub(crate) fn sync_trees(
     stats.updated = counts.updated;
     stats.removed = counts.removed;
     stats.moved = counts.moved;
+    stats.busy_moved = counts.busy_moved;
     stats.rejected = rejected.0.len();
     stats.static_rebuilt = static_rebuilt;
     stats.sync_time = start.elapsed();
@@ -267,6 +272,7 @@ struct SyncCounts {
     updated: usize,
     removed: usize,
     moved: usize,
+    busy_moved: usize,
 }
 
 fn place_checked(
@@ -278,36 +284,41 @@ fn place_checked(
     is_static: bool,
     counts: &mut SyncCounts,
 ) {
-    match placement(aabb, gt) {
-        Ok(at) => match (!is_static)
-            .then(|| trees.move_busy(entity, at.world))
-            .flatten()
-            .unwrap_or_else(|| trees.place(entity, at.world, at.frame(), is_static))
-        {
-            // Reported like a bad transform: once, until the entity fits again.
-            Placed::Refused(why) => reject(rejected, entity, why),
-            Placed::Evicted(why) => {
-                counts.removed += 1;
-                reject(rejected, entity, why);
-            }
-            placed => {
-                // The set is almost always empty: skip hashing every moved entity into it.
-                if !rejected.0.is_empty() && rejected.0.remove(&entity) {
-                    info!("bevy_accel: entity {entity} is valid again and back in the trees");
-                }
-                match placed {
-                    Placed::Inserted => counts.inserted += 1,
-                    Placed::Moved => counts.updated += 1,
-                    Placed::Unchanged | Placed::Same | Placed::Refused(_) | Placed::Evicted(_) => {}
-                }
-                if !is_static && matches!(placed, Placed::Moved | Placed::Unchanged) {
-                    counts.moved += 1;
-                }
-            }
-        },
+    let at = match placement(aabb, gt) {
+        Ok(at) => at,
         Err(why) => {
             counts.removed += trees.remove(entity) as usize;
             reject(rejected, entity, why);
+            return;
+        }
+    };
+    // A busy mover needs only its box: its own space is not kept (see `trees_busy`).
+    let busy = if is_static {
+        None
+    } else {
+        trees.move_busy(entity, at.world)
+    };
+    counts.busy_moved += usize::from(busy == Some(Placed::Moved));
+    match busy.unwrap_or_else(|| trees.place(entity, at.world, at.frame(), is_static)) {
+        // Reported like a bad transform: once, until the entity fits again.
+        Placed::Refused(why) => reject(rejected, entity, why),
+        Placed::Evicted(why) => {
+            counts.removed += 1;
+            reject(rejected, entity, why);
+        }
+        placed => {
+            // The set is almost always empty: skip hashing every moved entity into it.
+            if !rejected.0.is_empty() && rejected.0.remove(&entity) {
+                info!("bevy_accel: entity {entity} is valid again and back in the trees");
+            }
+            match placed {
+                Placed::Inserted => counts.inserted += 1,
+                Placed::Moved => counts.updated += 1,
+                Placed::Unchanged | Placed::Same | Placed::Refused(_) | Placed::Evicted(_) => {}
+            }
+            if !is_static && matches!(placed, Placed::Moved | Placed::Unchanged) {
+                counts.moved += 1;
+            }
         }
     }
 }

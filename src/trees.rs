@@ -200,6 +200,8 @@ pub struct AccelTrees {
     rays_cast: AtomicU32,
     /// This frame's rules for the busy movers.
     busy: BusyFrame,
+    /// See [`Self::index_generation`].
+    index_generation: u64,
 }
 
 impl AccelTrees {
@@ -302,7 +304,21 @@ impl AccelTrees {
 
     /// The index, for its upkeep (marks `AccelTrees` changed through `ResMut`).
     pub(crate) fn index_mut(&mut self) -> &mut EntityIndex {
+        self.note_index_changed();
         &mut self.index
+    }
+
+    /// A number that changes whenever the static tree or the dynamic index may have changed,
+    /// and not when only busy movers moved (they change the trees, as
+    /// [`is_changed`](bevy::prelude::DetectChanges::is_changed) tells, but no tree): what a
+    /// reader keeps from the index alone stays valid while it holds.
+    pub fn index_generation(&self) -> u64 {
+        self.index_generation
+    }
+
+    /// Marks the static tree or the dynamic index changed (see [`Self::index_generation`]).
+    pub(crate) fn note_index_changed(&mut self) {
+        self.index_generation = self.index_generation.wrapping_add(1);
     }
 
     /// Whether the dynamic index was edited since the last call.

@@ -70,6 +70,7 @@ impl AccelTrees {
     }
 
     fn swap_static(&mut self, swap: StaticSwap) {
+        self.note_index_changed();
         let old = self.index.set_static_prepared(swap.prepared);
         crate::scenery::free_off_the_frame(old);
         self.free_slots.extend(swap.freed);

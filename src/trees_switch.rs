@@ -91,6 +91,7 @@ impl AccelTrees {
     /// a switch is a rare, user-driven event.
     pub(crate) fn switch_index(&mut self, choice: IndexChoice) -> Vec<(Entity, &'static str)> {
         self.index.reset_dynamic(choice);
+        self.note_index_changed();
         self.pending_upkeep = true;
         let mut refused = Vec::new();
         for record in self.tracked_by_index.iter_mut().flatten() {
@@ -167,6 +168,7 @@ impl AccelTrees {
             let _ = dynamic.remove(handle);
         }
         let old = self.index.swap_dynamic(dynamic);
+        self.note_index_changed();
         debug_assert_eq!(self.index.choice(), target);
         // Freeing a structure of a million entries takes milliseconds; the pool pays them.
         match AsyncComputeTaskPool::try_get() {

@@ -100,7 +100,8 @@ pub(crate) fn advise_index(
     }
     let kind = automatic.0.observe(IndexWorkload {
         entries: stats.dynamic_entities,
-        moved: stats.moved,
+        // The index's own movers: the busy movers' moves are no work of the index's.
+        moved: stats.moved - stats.busy_moved,
         rays: stats.rays_per_frame,
     });
     stats.automatic = Some(AutomaticIndexStats {

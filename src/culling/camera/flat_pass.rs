@@ -4,7 +4,7 @@
 use super::view_walk::ViewWalk;
 use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
 use crate::culling::class_lists::{ClassLists, sort_visible};
-use crate::trees::AccelTrees;
+use crate::trees::{AccelTrees, TreeSlot};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
@@ -80,8 +80,11 @@ impl TreeVerdicts<'_> {
     /// subtree fully in view, no if tracked and in no leaf the walk reached.
     #[inline]
     fn frustum_test(&self, entity: Entity) -> Option<bool> {
-        let (slot, _) = self.trees.location(entity)?;
-        if self.walk.inside_bits.contains(slot) {
+        let (slot, tree) = self.trees.location(entity)?;
+        if tree == TreeSlot::Busy {
+            // A walk kept from an earlier frame knows only where a busy mover was.
+            None
+        } else if self.walk.inside_bits.contains(slot) {
             Some(true)
         } else if self.walk.crossing_bits.contains(slot) {
             None

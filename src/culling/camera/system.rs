@@ -73,6 +73,7 @@ pub(crate) fn cull_views_with_trees(
     mut class_lists: Local<ClassLists>,
     mut part_lists: Local<Vec<ClassLists>>,
     mut slot_rows: Local<SlotRows>,
+    mut index_generation: Local<Option<u64>>,
     entities: &Entities,
     bounds: Query<BoundsItem, Without<NoCpuCulling>>,
 ) {
@@ -81,8 +82,14 @@ pub(crate) fn cull_views_with_trees(
     let ranges = ranges.as_deref();
     let tracked = trees.len().max(1) as f32;
     let trees_changed = trees.is_changed();
-    if trees_changed {
+    // Busy movers change the trees every frame without touching the index: the flat
+    // pass's verdicts over the index hold through such frames (see `TreeVerdicts`).
+    let index_changed = *index_generation != Some(trees.index_generation());
+    *index_generation = Some(trees.index_generation());
+    if index_changed {
         walks.values_mut().for_each(ViewWalk::forget);
+    } else if trees_changed {
+        walks.values_mut().for_each(ViewWalk::forget_unless_bits);
     }
     for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in
         &mut views
@@ -101,10 +108,11 @@ pub(crate) fn cull_views_with_trees(
         {
             s.flat_views += 1;
             // Fresh trees settle most entities' frustum tests (see `TreeVerdicts`), but only
-            // over trees that held still this frame: a walk of trees that changed (movers)
-            // for a view that sees most of the world cost more than the tests it saved, so
-            // such a view takes Bevy's own pass (BENCHMARKS.md, Whole frame).
-            let use_trees = untracked.trees_current() && !no_cpu_culling_view && !trees_changed;
+            // over an index that held still this frame (busy movers aside, which Bevy's test
+            // decides): a walk of trees that changed (movers) for a view that sees most of
+            // the world cost more than the tests it saved, so such a view takes Bevy's own
+            // pass (BENCHMARKS.md, Whole frame).
+            let use_trees = untracked.trees_current() && !no_cpu_culling_view && !index_changed;
             let verdicts = use_trees.then(|| {
                 let planes = tree_planes(frustum);
                 let walk = walks.entry(view).or_default();

@@ -62,6 +62,16 @@ impl ViewWalk {
     pub(crate) fn forget(&mut self) {
         self.planes = None;
     }
+
+    /// Forgets the walk unless it is kept as sets for the flat pass: for a frame in which
+    /// only the busy movers changed. The sets' verdicts hold for every entity the index
+    /// holds, since the index did not change, and the flat pass asks none of busy movers
+    /// (see `TreeVerdicts`).
+    pub(crate) fn forget_unless_bits(&mut self) {
+        if self.form != WalkForm::Bits {
+            self.forget();
+        }
+    }
 }
 
 /// A set of tree slots, one bit each. Why slots, not entities: the walk emits slots in tree
