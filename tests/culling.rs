@@ -201,6 +201,16 @@ fn visible_sets_equal_bevys_while_the_plugin_pauses() {
 }
 
 #[test]
+fn visible_sets_equal_bevys_on_every_index() {
+    // The default (automatic) choice stays on the BVH at this size; the others here.
+    for index in IndexChoice::ALL {
+        if index != IndexChoice::Automatic && index != IndexChoice::Bvh {
+            check_camera_paths(Variant::Index(index));
+        }
+    }
+}
+
+#[test]
 fn visible_sets_equal_bevys_with_busy_movers() {
     check_camera_paths(Variant::BusyMovers);
 }
@@ -225,6 +235,8 @@ enum Variant {
     /// Every mover kept in the busy movers' flat list, quiet ones back in the index after
     /// two frames.
     BusyMovers,
+    /// The movers in this index, the busy movers' list off.
+    Index(IndexChoice),
 }
 
 fn check_camera_paths(variant: Variant) {
@@ -235,6 +247,11 @@ fn check_camera_paths(variant: Variant) {
         .world_mut()
         .resource_mut::<AccelSettings>()
         .require_marker = marked;
+    if let Variant::Index(index) = variant {
+        let mut settings = accel_app.world_mut().resource_mut::<AccelSettings>();
+        settings.index = index;
+        settings.busy_movers.mode = BusyMovers::Off;
+    }
     if variant == Variant::BusyMovers {
         accel_app
             .world_mut()

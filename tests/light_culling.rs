@@ -214,25 +214,36 @@ fn light_views(app: &mut App) -> (Views, Vec<bool>) {
 
 #[test]
 fn light_views_equal_bevys_over_moving_lights() {
-    check_light_views(BusyMovers::Off);
+    check_light_views(BusyMovers::Off, IndexChoice::Automatic);
 }
 
 #[test]
 fn light_views_equal_bevys_with_busy_movers() {
-    check_light_views(BusyMovers::On);
+    check_light_views(BusyMovers::On, IndexChoice::Automatic);
 }
 
-fn check_light_views(busy: BusyMovers) {
+#[test]
+fn light_views_equal_bevys_on_every_index() {
+    // The default (automatic) choice stays on the BVH at this size; the others here.
+    for index in IndexChoice::ALL {
+        if index != IndexChoice::Automatic && index != IndexChoice::Bvh {
+            check_light_views(BusyMovers::Off, index);
+        }
+    }
+}
+
+fn check_light_views(busy: BusyMovers, index: IndexChoice) {
     let mut bevy_app = app(false);
     let mut accel_app = app(true);
-    accel_app
-        .world_mut()
-        .resource_mut::<AccelSettings>()
-        .busy_movers = BusyMoverSettings {
-        mode: busy,
-        quiet_frames: 2,
-        ..default()
-    };
+    {
+        let mut settings = accel_app.world_mut().resource_mut::<AccelSettings>();
+        settings.index = index;
+        settings.busy_movers = BusyMoverSettings {
+            mode: busy,
+            quiet_frames: 2,
+            ..default()
+        };
+    }
     let mut busy_seen = 0;
     let parents = [populate(&mut bevy_app, 9), populate(&mut accel_app, 9)];
     lights_and_cameras(&mut bevy_app);

@@ -124,6 +124,35 @@ fn ray_casts_equal_mesh_ray_cast_on_random_scenes() {
     }
 }
 
+#[test]
+fn ray_casts_equal_mesh_ray_cast_on_every_index() {
+    // The default (automatic) choice stays on the BVH at this size; the others here.
+    for index in IndexChoice::ALL {
+        if index == IndexChoice::Automatic || index == IndexChoice::Bvh {
+            continue;
+        }
+        let mut app = app();
+        app.insert_resource(AccelSettings {
+            index,
+            busy_movers: BusyMoverSettings {
+                mode: BusyMovers::Off,
+                ..default()
+            },
+            ..default()
+        });
+        populate(&mut app, 1000, 5);
+        app.update();
+        assert_eq!(app.world().resource::<AccelStats>().index, index);
+        let tally = equivalence(&mut app, 2_000, 55);
+        assert!(tally.hits * 4 > tally.rays, "{index:?}: too few hits");
+        assert_eq!(
+            tally.different, 0,
+            "{index:?}: {} of {} rays differ (first: {:?})",
+            tally.different, tally.rays, tally.first
+        );
+    }
+}
+
 /// Runs one backend system on a ray map and returns the hits it wrote, by camera order.
 fn backend_hits<M>(app: &mut App, system: impl IntoSystem<(), (), M>) -> Vec<PointerHits> {
     app.world_mut().run_system_once(system).unwrap();
