@@ -501,12 +501,7 @@ impl AccelTrees {
     /// arrived.
     #[inline]
     pub(crate) fn prefetch_placement(&self, entity: Entity) {
-        let busy = self.index.busy_movers();
-        if busy
-            .position(entity.index_u32(), busy_tag(entity))
-            .is_some()
-        {
-            busy.prefetch_entry(entity.index_u32());
+        if self.index.busy_movers().prefetch_entry(entity.index_u32()) {
             return;
         }
         let Some(t) = self.tracked(entity) else {

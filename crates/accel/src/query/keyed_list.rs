@@ -175,13 +175,18 @@ impl KeyedList {
     }
 
     /// Asks for the entry of `key`, once its position has arrived (see
-    /// [`prefetch_key`](Self::prefetch_key)). A hint only.
+    /// [`prefetch_key`](Self::prefetch_key)); true when the key has an entry, whatever its
+    /// tag. A hint only: the entry itself is not read, so that asking costs no wait on it.
     #[inline]
-    pub fn prefetch_entry(&self, key: u32) {
-        if let Some(&p) = self.position_by_key.get(key as usize)
-            && let Some(entry) = self.entries.get(p as usize)
-        {
-            crate::prefetch::prefetch_value(entry);
+    pub fn prefetch_entry(&self, key: u32) -> bool {
+        match self.position_by_key.get(key as usize) {
+            Some(&p) if p != ABSENT => {
+                if let Some(entry) = self.entries.get(p as usize) {
+                    crate::prefetch::prefetch_value(entry);
+                }
+                true
+            }
+            _ => false,
         }
     }
 
