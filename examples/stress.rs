@@ -145,13 +145,14 @@ fn report(
         .unwrap_or(0.0);
     let ms = |d: core::time::Duration| d.as_secs_f64() * 1e3;
     let line = format!(
-        "{:.1} ms/frame | {:?} (on {:?}) | {} entities, {} moved | sync {:.2} ms, \
+        "{:.1} ms/frame | {:?} (on {:?}) | {} entities, {} moved, {} busy | sync {:.2} ms, \
          maintain {:.2} ms, culling {:.2} ms, {} visible",
         frame_ms,
         settings.index,
         stats.index,
         stats.dynamic_entities + stats.static_entities,
         stats.updated,
+        stats.busy_movers,
         ms(stats.sync_time),
         ms(stats.maintain_time),
         culling.as_ref().map_or(0.0, |c| ms(c.time)),

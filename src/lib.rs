@@ -2,8 +2,9 @@
 //!
 //! Acceleration structures over a Bevy world's entities. Add [`AccelPlugin`] and every entity
 //! with an `Aabb` and a `GlobalTransform` is kept in the trees (a BVH, or a uniform grid while
-//! many entities move: [`IndexChoice`]), in step with its transform, every frame, at no cost
-//! in frames where nothing changed. Query them through [`AccelTrees`].
+//! many entities move: [`IndexChoice`]; entities that move every frame in a flat list beside
+//! them: [`BusyMoverSettings`]), in step with its transform, every frame, at no cost in frames
+//! where nothing changed. Query them through [`AccelTrees`].
 //!
 //! The geometry lives in the engine-independent crate [`accel`] (re-exported); this crate only
 //! connects it to the ECS.

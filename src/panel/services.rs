@@ -1,6 +1,6 @@
 //! The services' switches, the index of the movers and the static tree's builder.
 
-use crate::{AccelSettings, IndexChoice, StaticTreeBuild};
+use crate::{AccelSettings, BusyMovers, IndexChoice, StaticTreeBuild};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy_egui::egui;
@@ -58,6 +58,13 @@ impl ServiceControls<'_> {
             .show_ui(ui, |ui| {
                 for choice in IndexChoice::ALL {
                     ui.selectable_value(&mut edited.index, choice, format!("{choice:?}"));
+                }
+            });
+        egui::ComboBox::from_label("Busy movers")
+            .selected_text(format!("{:?}", edited.busy_movers.mode))
+            .show_ui(ui, |ui| {
+                for mode in [BusyMovers::Automatic, BusyMovers::On, BusyMovers::Off] {
+                    ui.selectable_value(&mut edited.busy_movers.mode, mode, format!("{mode:?}"));
                 }
             });
         egui::ComboBox::from_label("Static build")

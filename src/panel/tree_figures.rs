@@ -35,6 +35,10 @@ impl TreeFigures<'_> {
                         "  moving / static",
                         format!("{} / {}", s.dynamic_entities, s.static_entities),
                     );
+                    if s.busy_movers > 0 {
+                        // Moving frame after frame: in the flat list, not the index.
+                        row(ui, "  busy movers", format!("{}", s.busy_movers));
+                    }
                     if s.static_waiting > 0 || s.static_build_in_flight {
                         row(
                             ui,
