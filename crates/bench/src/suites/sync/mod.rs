@@ -154,7 +154,7 @@ fn measure(s: &mut SyncApp, stride: Option<usize>, sizes: &Sizes) -> Upkeep {
         let optimise = st
             .bvh
             .and_then(|b| b.last_maintain)
-            .filter(|_| st.updated > 0)
+            .filter(|_| st.updated > st.busy_moved)
             .map_or(Duration::ZERO, |m| m.optimize.elapsed);
         let row = [
             ms(st.sync_time),
