@@ -4,9 +4,9 @@
 //! Why: a mover in a tree costs its sync a tracked record, a slot record of two lines and
 //! the index's entry, each a cache miss at a million entities, and the tree its refit; the
 //! least any upkeep of a mover can cost (the `Changed` scan, its rows, its world box and one
-//! store) is a third of that (BENCHMARKS.md, Plugin sync). A busy mover's sync reads a 4-byte
+//! store) is well under that (BENCHMARKS.md, Plugin sync). A busy mover's sync reads a 4-byte
 //! position by entity index and writes one list entry, in the order the sync visits movers;
-//! queries test the list flat, a few nanoseconds a box. Entities that stay still for
+//! queries test the list flat, one box test an entry. Entities that stay still for
 //! [`BusyMoverSettings::quiet_frames`](crate::BusyMoverSettings::quiet_frames) go back into
 //! the dynamic index, where queries pay nothing for them.
 

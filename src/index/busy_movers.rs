@@ -21,8 +21,8 @@ pub enum BusyMovers {
 /// outside the dynamic index ([`EntityIndex::busy_movers`](crate::EntityIndex::busy_movers)).
 ///
 /// A mover in a tree costs its sync several cache misses and the tree a refit; in the list
-/// it costs one entry write, and every query tests it flat (a frustum or a ray, a few
-/// nanoseconds a box). So the list pays where many entities move and queries are few
+/// it costs one entry write, and every query tests it flat (one box test an entry for a
+/// frustum or a ray). So the list pays where many entities move and queries are few
 /// (culling, one pointer ray), and loses where many rays are cast (the preview, ray-heavy
 /// gameplay). Queries, culling and picking see the same entities either way.
 #[derive(Reflect, Clone, Debug, PartialEq)]

@@ -3,10 +3,10 @@
 //!
 //! Why a list and not a tree: a tree pays for each move (a leaf, its parents, a refit), and
 //! for objects that move every frame that upkeep costs more than the queries it saves. A
-//! list entry costs one box write per move, and a query tests every entry, which for a
-//! frustum or a ray is a few nanoseconds a box. Why keys and not handles: the caller then
-//! finds an entry through one small array indexed by its own number (an entity's index),
-//! with no record of its own to read first; every other lookup is a cache miss per move.
+//! list entry costs one box write per move, and a query tests every entry, one box test
+//! each. Why keys and not handles: the caller then finds an entry through one small array
+//! indexed by its own number (an entity's index), with no record of its own to read first;
+//! every other lookup is a cache miss per move.
 
 use super::dynamic_index::IndexError;
 use super::flat_loops;
