@@ -397,3 +397,7 @@ impl SpatialQuery for EntityIndex {
         merge_nearest(trees, busy, k)
     }
 }
+
+#[cfg(test)]
+#[path = "entity_index_tests.rs"]
+mod tests;
