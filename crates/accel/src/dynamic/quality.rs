@@ -382,11 +382,16 @@ impl DynamicBvh {
         debug_assert!(self.dirty.is_empty());
         self.schedule.invalidate();
         let len = self.arena.nodes.len();
+        // Freed straight to the arena, outside the area sums: taking every internal node's
+        // area out one by one drove the sum below its cancellation threshold again and again
+        // near the end, each time an O(n) recount (docs/experiments.md, Dynamic BVH).
         for i in 0..len as u32 {
             if self.arena.nodes[i as usize].is_internal() {
-                self.free_node(i);
+                self.arena.free(i);
             }
         }
+        self.internal_area = 0.0;
+        self.area_peaks.0 = 0.0;
         self.root = NULL;
         let nodes = bvh.nodes();
         let prims = bvh.primitive_indices();
