@@ -435,9 +435,11 @@ impl DynamicBvh {
                 placed,
             ),
         };
+        let mut leaf_area = 0.0f64;
         for i in 0..len as u32 {
             let n = &mut self.arena.nodes[i as usize];
             if n.is_leaf() {
+                leaf_area += n.aabb.half_area_f64();
                 if n.flags & FLAG_PLACED != 0 {
                     n.flags &= !FLAG_PLACED;
                 } else {
@@ -446,7 +448,10 @@ impl DynamicBvh {
                 }
             }
         }
-        self.recompute_area_sums();
+        // Both sums afresh without a recount pass: the internal one was zeroed above and
+        // counted by the joins and attachments, the leaves' in this loop.
+        self.leaf_area = leaf_area;
+        self.area_peaks = (self.internal_area, leaf_area);
         self.quality.calibration = self.sample_cost_per_leaf().map(|per_leaf| Calibration {
             scale: if per_leaf > 0.0 && built_leaves > 0 {
                 fresh / (per_leaf * built_leaves as f64)
