@@ -6,8 +6,7 @@
 //! no static entity and touches no tree.
 
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
-use crate::index::AutomaticIndex;
-use crate::index::BusyMoverSettings;
+use crate::index::{AutomaticIndex, BusyMoverSettings};
 use crate::prefetch::{for_each_prefetched_in_two_stages, prefetch_all};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
@@ -68,8 +67,7 @@ pub(crate) struct Placement {
 }
 
 impl Placement {
-    /// The entity's own space. Taken on demand: a busy mover's sync needs only the box, and
-    /// the inverse is a fifth of a mover's placement.
+    /// The entity's own space. Taken on demand: a busy mover's sync needs only the box.
     pub(crate) fn frame(&self) -> LocalFrame {
         // Inverted as Bevy's `MeshRayCast` does for each ray, so local rays match its own.
         LocalFrame {

@@ -22,6 +22,7 @@ use bevy::picking::mesh_picking::ray_cast::{
 };
 use bevy::prelude::*;
 use core::ops::ControlFlow;
+use std::borrow::Cow;
 
 /// The entities Bevy's `MeshRayCast` can hit: those with a mesh.
 type MeshFilter = Or<(With<Mesh3d>, With<Mesh2d>, With<SimplifiedMesh>)>;
@@ -297,10 +298,14 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             hits,
             ..
         } = self;
-        // A busy mover's own space, from its rows as the sync placed it.
-        let busy_frame = |entity: Entity| {
-            let (aabb, gt) = busy_rows.get(entity).ok()?;
-            placement(aabb, gt).ok().map(|at| at.frame())
+        // A slot's own space: kept by the trees, or for a busy mover taken from its rows as
+        // the sync placed it.
+        let frame_of = |slot: u32, entity: Entity| match trees.local_frame(slot) {
+            Some(frame) => Some(Cow::Borrowed(frame)),
+            None => {
+                let (aabb, gt) = busy_rows.get(entity).ok()?;
+                placement(aabb, gt).ok().map(|at| Cow::Owned(at.frame()))
+            }
         };
         hits.clear();
         trees.count_rays(1);
@@ -341,14 +346,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     // exact world box first: the oriented box lies inside it, and the static
                     // trees' boxes are those boxes already (rays at 10^5 entities ran a little
                     // faster without it: docs/experiments.md, Picking).
-                    let busy;
-                    let frame = match trees.local_frame(slot) {
-                        Some(frame) => frame,
-                        None => {
-                            busy = busy_frame(entity)?;
-                            &busy
-                        }
-                    };
+                    let frame = &*frame_of(slot, entity)?;
                     let local = r.transformed(&frame.local_from_world);
                     let entry = local.intersect_aabb(&frame.local_bounds)?;
                     let hit = if let Some(SlotMeshLookup::Mesh {
@@ -387,14 +385,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     if !counts(entity, inherited, view) {
                         return None;
                     }
-                    let busy;
-                    let frame = match trees.local_frame(slot) {
-                        Some(frame) => frame,
-                        None => {
-                            busy = busy_frame(entity)?;
-                            &busy
-                        }
-                    };
+                    let frame = &*frame_of(slot, entity)?;
                     let local = r.transformed(&frame.local_from_world);
                     let hit = box_hit(frame, r, &local)?;
                     (entity, entry, hit)
