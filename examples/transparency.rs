@@ -1,4 +1,4 @@
-//! Intersecting transparent surfaces in the exact order of a BSP tree (`accel::bsp`), beside
+//! Intersecting transparent surfaces in the exact order of a BSP tree (`spatial_accel::bsp`), beside
 //! Bevy's own order. Bevy sorts transparent meshes by their centres, which no order of whole
 //! meshes can get right when they cross each other: on the right, three crossing quads and
 //! three cyclically overlapping sticks are each a mesh of their own, sorted by Bevy. On the
@@ -20,7 +20,7 @@ use bevy::math::Vec3A;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use bevy_accel::accel::bsp::BspTree;
+use bevy_accel::spatial_accel::bsp::BspTree;
 
 #[path = "support/screenshot.rs"]
 mod screenshot;

@@ -6,14 +6,14 @@
 //! them: [`BusyMoverSettings`]), in step with its transform, every frame, at no cost in frames
 //! where nothing changed. Query them through [`AccelTrees`].
 //!
-//! The geometry lives in the engine-independent crate [`accel`] (re-exported); this crate only
+//! The geometry lives in the engine-independent crate [`spatial_accel`] (re-exported); this crate only
 //! connects it to the ECS.
 //!
 //! ```
 //! use bevy::prelude::*;
 //! use bevy::camera::primitives::Aabb;
 //! use bevy_accel::prelude::*;
-//! use bevy_accel::accel::{Ray, SpatialQuery};
+//! use bevy_accel::spatial_accel::{Ray, SpatialQuery};
 //! use bevy::math::Vec3A;
 //!
 //! let mut app = App::new();
@@ -65,7 +65,6 @@ mod stats;
 mod sync;
 mod trees;
 
-pub use accel;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::{AccelCullingPlugin, AccelCullingSettings};
@@ -78,6 +77,7 @@ pub use picking::AccelSpritePickingPlugin;
 #[cfg(feature = "picking")]
 pub use picking::{AccelPickingPlugin, AccelRayCast};
 pub use settings::{AccelSettings, StaticTreeBuild};
+pub use spatial_accel;
 pub use stats::AccelStats;
 pub use trees::{AccelTrees, LocalFrame, TreeSlot};
 

@@ -1,7 +1,7 @@
 //! An entity's own space, kept beside its world box for exact ray tests.
 
-use accel::Aabb;
 use bevy::math::Affine3A;
+use spatial_accel::Aabb;
 
 /// An entity's own space as the trees last saw it: what an exact ray test needs once a ray
 /// has reached the entity's world box.

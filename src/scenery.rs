@@ -21,9 +21,9 @@
 //! streaming.
 
 use crate::settings::StaticTreeBuild;
-use accel::dynamic::PreparedStatic;
-use accel::{Aabb, BuildConfig, Bvh, SahCosts};
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};
+use spatial_accel::dynamic::PreparedStatic;
+use spatial_accel::{Aabb, BuildConfig, Bvh, SahCosts};
 
 /// What a build takes and gives back: the boxes by slot (handed back so the next build
 /// reuses them without a copy).

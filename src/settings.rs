@@ -83,7 +83,7 @@ impl AccelSettings {
     }
 }
 
-/// The builder of the static tree, one of the core's [`accel::SplitStrategy`] choices.
+/// The builder of the static tree, one of the core's [`spatial_accel::SplitStrategy`] choices.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Default)]
 pub enum StaticTreeBuild {
@@ -116,15 +116,15 @@ impl StaticTreeBuild {
     ///
     /// ```
     /// use bevy_accel::StaticTreeBuild;
-    /// assert_eq!(StaticTreeBuild::Lbvh.split(), bevy_accel::accel::SplitStrategy::Lbvh);
+    /// assert_eq!(StaticTreeBuild::Lbvh.split(), bevy_accel::spatial_accel::SplitStrategy::Lbvh);
     /// ```
-    pub fn split(self) -> accel::SplitStrategy {
+    pub fn split(self) -> spatial_accel::SplitStrategy {
         match self {
-            Self::Ploc => accel::SplitStrategy::PLOC_FASTEST,
-            Self::BinnedSah => accel::SplitStrategy::BinnedSah { bins: 32 },
-            Self::SweepSah => accel::SplitStrategy::SweepSah,
-            Self::Lbvh => accel::SplitStrategy::Lbvh,
-            Self::Median => accel::SplitStrategy::Median,
+            Self::Ploc => spatial_accel::SplitStrategy::PLOC_FASTEST,
+            Self::BinnedSah => spatial_accel::SplitStrategy::BinnedSah { bins: 32 },
+            Self::SweepSah => spatial_accel::SplitStrategy::SweepSah,
+            Self::Lbvh => spatial_accel::SplitStrategy::Lbvh,
+            Self::Median => spatial_accel::SplitStrategy::Median,
         }
     }
 }

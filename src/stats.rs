@@ -2,10 +2,10 @@
 
 use crate::index::{AutomaticIndexStats, BvhIndexStats, IndexChoice};
 use crate::trees::AccelTrees;
-use accel::query::{IndexStats, UpkeepReport};
 use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
 use bevy::prelude::*;
 use core::time::Duration;
+use spatial_accel::query::{IndexStats, UpkeepReport};
 
 /// Counts and timings of the last sync, updated every frame the plugin runs.
 #[derive(Resource, Clone, Debug, Default)]

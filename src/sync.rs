@@ -61,9 +61,9 @@ pub(crate) fn add_membership_observers(app: &mut App) {
 /// Where an entity is: its world box, and what its own space is taken from.
 pub(crate) struct Placement {
     /// The entity's `Aabb` in world space.
-    pub(crate) world: accel::Aabb,
+    pub(crate) world: spatial_accel::Aabb,
     affine: Affine3A,
-    local: accel::Aabb,
+    local: spatial_accel::Aabb,
 }
 
 impl Placement {
@@ -93,7 +93,7 @@ pub(crate) fn placement(
     if det == 0.0 {
         return Err("its GlobalTransform has a zero scale");
     }
-    let local = accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents);
+    let local = spatial_accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents);
     if !local.is_finite() {
         return Err("its Aabb is not finite");
     }

@@ -4,11 +4,11 @@ use crate::index::EntityIndex;
 pub use crate::local_frame::LocalFrame;
 use crate::prefetch::prefetch_all;
 use crate::scenery::StaticScenery;
-use accel::dynamic::DynamicBvh;
-use accel::query::{AnyHandle, IndexError};
-use accel::{Aabb, Bvh};
 use bevy::prelude::*;
 use core::sync::atomic::{AtomicU32, Ordering};
+use spatial_accel::dynamic::DynamicBvh;
+use spatial_accel::query::{AnyHandle, IndexError};
+use spatial_accel::{Aabb, Bvh};
 
 /// Where a tracked entity lives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -205,7 +205,7 @@ pub struct AccelTrees {
 }
 
 impl AccelTrees {
-    /// Both trees, as one [`SpatialQuery`](accel::SpatialQuery): primitive ids are slots.
+    /// Both trees, as one [`SpatialQuery`](spatial_accel::SpatialQuery): primitive ids are slots.
     pub fn query(&self) -> &EntityIndex {
         &self.index
     }
@@ -516,7 +516,7 @@ impl AccelTrees {
 
     /// Asks for what a ray's candidate test reads first of a slot: its record (exact box,
     /// entity and own space). A hint only; see
-    /// [`RayWalk::walk_ray_announcing`](accel::query::RayWalk::walk_ray_announcing), which
+    /// [`RayWalk::walk_ray_announcing`](spatial_accel::query::RayWalk::walk_ray_announcing), which
     /// says when.
     #[inline]
     pub fn prefetch_candidate(&self, slot: u32) {

@@ -12,9 +12,9 @@
 
 use super::{AccelTrees, Placed, SlotEntry, TreeSlot, busy_tag};
 use crate::LocalFrame;
-use accel::Aabb;
-use accel::query::AnyHandle;
 use bevy::prelude::*;
+use spatial_accel::Aabb;
+use spatial_accel::query::AnyHandle;
 
 impl AccelTrees {
     /// Starts a frame of the busy movers: whether movers may join, and how many entities may

@@ -10,10 +10,10 @@
 
 use super::{AccelTrees, TreeSlot, refusal};
 use crate::index::IndexChoice;
-use accel::Aabb;
-use accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError};
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};
+use spatial_accel::Aabb;
+use spatial_accel::query::{AnyHandle, AnyIndex, DynamicIndex, IndexError};
 
 /// The dynamic entries at the snapshot, with the new structure's handle for each.
 type Filled = (AnyIndex, Vec<(u32, Aabb, Result<AnyHandle, IndexError>)>);

@@ -1,9 +1,9 @@
 //! Tests of [`AccelTrees`](super::AccelTrees)' slot bookkeeping.
 
 use super::{AccelTrees, LocalFrame, Placed};
-use accel::Aabb;
 use bevy::math::Vec3;
 use bevy::prelude::Entity;
+use spatial_accel::Aabb;
 
 /// Bevy hands a despawned entity's index to a new entity. When the newcomer is placed
 /// before the dead entity's removal is processed, the dead one must leave the trees then,

@@ -350,7 +350,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                 assert!(!batch.is_empty());
 
                 // Overlaps equal a scan of every tracked entity's exact world box.
-                let brute = |keep: &dyn Fn(&bevy_accel::accel::Aabb) -> bool| {
+                let brute = |keep: &dyn Fn(&bevy_accel::spatial_accel::Aabb) -> bool| {
                     let mut v: Vec<Entity> = trees
                         .iter()
                         .filter(|&(_, slot)| keep(&trees.world_bounds(slot)))
@@ -366,7 +366,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                     assert_eq!(got, brute(&|b| b.contains_point(p)));
                     let half = Vec3::splat(rng.range(0.0, 10.0));
                     let query = Aabb3d::new(p, half);
-                    let q = bevy_accel::accel::Aabb::new(p - half, p + half);
+                    let q = bevy_accel::spatial_accel::Aabb::new(p - half, p + half);
                     let got = ours.overlap_aabb(query).to_vec();
                     assert_eq!(got, brute(&|b| b.intersects_aabb(&q)));
                     nonempty += usize::from(!got.is_empty());
@@ -378,7 +378,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                     let clip = proj * view;
                     let frustum = Frustum(ViewFrustum::from_clip_from_world(&clip));
                     let planes = frustum.half_spaces.map(|h| h.normal_d());
-                    let f = bevy_accel::accel::Frustum::from_planes(planes);
+                    let f = bevy_accel::spatial_accel::Frustum::from_planes(planes);
                     let got = ours.overlap_frustum(&frustum).to_vec();
                     assert_eq!(got, brute(&|b| f.intersects_aabb(b)));
                 }

@@ -5,10 +5,10 @@ use bevy::camera::primitives::Aabb;
 use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
 use bevy_accel::TreeSlot;
-use bevy_accel::accel::SpatialQuery;
-use bevy_accel::accel::dynamic::DynamicBvh;
-use bevy_accel::accel::query::AnyHandle;
 use bevy_accel::prelude::*;
+use bevy_accel::spatial_accel::SpatialQuery;
+use bevy_accel::spatial_accel::dynamic::DynamicBvh;
+use bevy_accel::spatial_accel::query::AnyHandle;
 use core::ops::ControlFlow;
 
 mod common;
@@ -59,7 +59,7 @@ fn check_consistency(app: &mut App) {
     let world = app.world_mut();
     let mut q = world.query_filtered::<(Entity, &Aabb, &GlobalTransform), Without<AccelIgnore>>();
     let mut expected = EntityHashSet::default();
-    let boxes: Vec<(Entity, bevy_accel::accel::Aabb)> = q
+    let boxes: Vec<(Entity, bevy_accel::spatial_accel::Aabb)> = q
         .iter(world)
         .filter_map(|(e, aabb, gt)| {
             let a = gt.affine();
@@ -69,7 +69,7 @@ fn check_consistency(app: &mut App) {
             ok.then(|| {
                 (
                     e,
-                    bevy_accel::accel::Aabb::from_center_half_extents(
+                    bevy_accel::spatial_accel::Aabb::from_center_half_extents(
                         aabb.center,
                         aabb.half_extents,
                     )
@@ -131,7 +131,10 @@ fn check_consistency(app: &mut App) {
             assert_eq!(trees.location(e), Some((slot, TreeSlot::Static)), "{e}");
             held_static += 1;
         } else {
-            assert_eq!(trees.world_bounds(slot), bevy_accel::accel::Aabb::EMPTY);
+            assert_eq!(
+                trees.world_bounds(slot),
+                bevy_accel::spatial_accel::Aabb::EMPTY
+            );
         }
     }
     trees.query().busy_movers().validate().unwrap();
@@ -609,7 +612,7 @@ fn rays_find_entities_through_both_trees() {
         .id();
     app.update();
     let trees = app.world().resource::<AccelTrees>();
-    let ray = bevy_accel::accel::Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
+    let ray = bevy_accel::spatial_accel::Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
     let mut hits = Vec::new();
     trees.query().cast_ray_all(
         &ray,
@@ -675,7 +678,7 @@ fn a_new_static_build_strategy_rebuilds_the_static_tree_once() {
         let trees = app.world().resource::<AccelTrees>();
         let mut out = Vec::new();
         for k in 0..50 {
-            let ray = bevy_accel::accel::Ray::new(
+            let ray = bevy_accel::spatial_accel::Ray::new(
                 Vec3A::new(k as f32 * 2.0 - 50.0, -60.0, 0.0),
                 Vec3A::new(0.01, 1.0, 0.02),
             );

@@ -12,10 +12,10 @@
 //! where Bevy's test would read them differently ([`tree_plane`]).
 
 use crate::trees::AccelTrees;
-use accel::SpatialQuery;
-use accel::query::views::ViewClassification;
-use accel::{Aabb, Containment, Frustum};
 use bevy::math::{Vec3A, Vec4};
+use spatial_accel::SpatialQuery;
+use spatial_accel::query::views::ViewClassification;
+use spatial_accel::{Aabb, Containment, Frustum};
 
 /// `b` grown by a few ulps of its largest coordinate (and a little more near the origin).
 #[inline]
@@ -87,12 +87,12 @@ mod tests {
     use super::{classify_for_bevy, tree_plane};
     use crate::culling::bevy_tests::bevy_frustum_test;
     use crate::sync::placement;
-    use accel::{Containment, Frustum as AccelFrustum};
     use accel_testkit::Rng;
     use bevy::camera::primitives::{Aabb, Frustum};
     use bevy::math::primitives::{HalfSpace, ViewFrustum};
     use bevy::math::{Vec3A, Vec4};
     use bevy::prelude::*;
+    use spatial_accel::{Containment, Frustum as AccelFrustum};
 
     /// Entities up to 1e6 from the origin, each with a near plane through the corner of its
     /// world box that the plane's normal points away from (in front) or towards (behind),

@@ -4,8 +4,8 @@
 use super::IndexChoice;
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
-use accel::query::{IndexAdvice, IndexAdvisor, IndexWorkload};
 use bevy::prelude::*;
+use spatial_accel::query::{IndexAdvice, IndexAdvisor, IndexWorkload};
 
 /// The thresholds of [`IndexChoice::Automatic`], in
 /// [`AccelSettings::automatic`](crate::AccelSettings::automatic). The defaults follow the

@@ -4,8 +4,8 @@
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::AccelTrees;
-use accel::dynamic::{DynamicBvhConfig, MaintainReport, StaticDynamicPair};
 use bevy::prelude::*;
+use spatial_accel::dynamic::{DynamicBvhConfig, MaintainReport, StaticDynamicPair};
 
 /// Settings of the BVH backend ([`IndexChoice::Bvh`](super::IndexChoice::Bvh)); the other
 /// backends ignore them.
@@ -195,7 +195,7 @@ pub(crate) fn maintain_bvh(
     }
     bvh.ray_snapshot = pair.is_some_and(StaticDynamicPair::has_dynamic_ray_snapshot);
     if let Some(r) = report {
-        stats.last_upkeep = accel::query::UpkeepReport {
+        stats.last_upkeep = spatial_accel::query::UpkeepReport {
             refit_nodes: r.refit_nodes,
             improved: r.optimize.reinserted,
             rebuilt: r.rebuilt,

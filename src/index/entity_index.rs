@@ -2,18 +2,18 @@
 //! under the static tree.
 
 use super::IndexChoice;
-use accel::dynamic::{
-    DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair, merge_nearest,
-};
-use accel::query::views::{ViewClassification, ViewMasks};
-use accel::query::{
-    AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, KeyedList, NodeView,
-    RayWalk,
-};
-use accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 use bevy::math::Vec3A;
 use core::cell::Cell;
 use core::ops::ControlFlow;
+use spatial_accel::dynamic::{
+    DynamicBvh, DynamicBvhConfig, LayeredIndex, PreparedStatic, StaticDynamicPair, merge_nearest,
+};
+use spatial_accel::query::views::{ViewClassification, ViewMasks};
+use spatial_accel::query::{
+    AnyHandle, AnyIndex, DynamicIndex, IndexError, IndexKind, IndexStats, KeyedList, NodeView,
+    RayWalk,
+};
+use spatial_accel::{Aabb, Bvh, Containment, Frustum, Ray, SpatialQuery, Sphere};
 
 /// The static tree, the dynamic index and the busy movers over the tracked entities,
 /// queried as one [`SpatialQuery`] whose primitive ids are slots (see

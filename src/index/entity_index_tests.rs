@@ -2,9 +2,9 @@
 //! against the flat oracle over the same boxes.
 
 use super::*;
-use accel::query::BruteForceIndex;
-use accel::{BuildConfig, Ray};
 use accel_testkit::{BoxScene, Rng, box_scene};
+use spatial_accel::query::BruteForceIndex;
+use spatial_accel::{BuildConfig, Ray};
 
 /// The boxes split in thirds: static, dynamic, busy; ids are the boxes' indices.
 fn three_layers(choice: IndexChoice, boxes: &[Aabb]) -> EntityIndex {
@@ -102,8 +102,9 @@ fn every_query_through_three_layers_equals_the_oracle() {
             let (mut got, mut want) = (Vec::new(), Vec::new());
             index.cast_ray_all(&ray, hit, &mut got);
             oracle.cast_ray_all(&ray, hit, &mut want);
-            let ids =
-                |hits: &[accel::query::RayHit]| sorted(hits.iter().map(|h| h.primitive).collect());
+            let ids = |hits: &[spatial_accel::query::RayHit]| {
+                sorted(hits.iter().map(|h| h.primitive).collect())
+            };
             assert_eq!(ids(&got), ids(&want), "{choice:?}: all hits");
         }
         // A visitor that stops stops every layer: one report, whichever layer holds it.

@@ -35,13 +35,13 @@ pub enum IndexChoice {
     /// A dynamic BVH with fat leaves, fused with the static tree, and a 16-wide snapshot for
     /// rays ([`BvhIndexSettings`]).
     Bvh,
-    /// A loose octree ([`accel::LooseOctree`]): an entity at the depth its size gives, a move
+    /// A loose octree ([`spatial_accel::LooseOctree`]): an entity at the depth its size gives, a move
     /// inside its loose cell one box write.
     Octree,
-    /// A loose quadtree over x and y ([`accel::Quadtree`]), for 2D games: sprites and
+    /// A loose quadtree over x and y ([`spatial_accel::Quadtree`]), for 2D games: sprites and
     /// `Mesh2d` on the xy plane.
     Quadtree,
-    /// A hashed uniform grid ([`accel::UniformGrid`]): entities in every cell they overlap,
+    /// A hashed uniform grid ([`spatial_accel::UniformGrid`]): entities in every cell they overlap,
     /// rays by 3D DDA.
     Grid,
     /// A flat list: every query tests every moving entity. For a handful of movers, and to
@@ -82,8 +82,8 @@ impl IndexChoice {
 
     /// The core's structure behind this choice; `None` for [`Automatic`](Self::Automatic),
     /// which is one of the others at any time.
-    pub fn kind(self) -> Option<accel::query::IndexKind> {
-        use accel::query::IndexKind;
+    pub fn kind(self) -> Option<spatial_accel::query::IndexKind> {
+        use spatial_accel::query::IndexKind;
         match self {
             Self::Bvh => Some(IndexKind::DynamicBvh),
             Self::Octree => Some(IndexKind::Octree),
@@ -95,7 +95,7 @@ impl IndexChoice {
     }
 
     /// The choice that holds the core's structure `kind`.
-    pub fn of_kind(kind: accel::query::IndexKind) -> Self {
+    pub fn of_kind(kind: spatial_accel::query::IndexKind) -> Self {
         Self::ALL
             .into_iter()
             .find(|c| c.kind() == Some(kind))

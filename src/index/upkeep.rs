@@ -4,8 +4,8 @@ use super::bvh_backend::{RayTraffic, dynamic_config, maintain_bvh};
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::AccelTrees;
-use accel::query::DynamicIndex;
 use bevy::prelude::*;
+use spatial_accel::query::DynamicIndex;
 use std::time::Instant;
 
 /// Makes the dynamic index consistent after the sync's edits and lets it spend

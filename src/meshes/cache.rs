@@ -6,11 +6,11 @@
 //! a tree descent instead. Building is lazy: a scene with 10^5 meshes that rays never reach
 //! builds nothing.
 
-use accel::mesh::MeshBvh;
 use bevy::asset::AssetId;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
+use spatial_accel::mesh::MeshBvh;
 use std::sync::{Arc, PoisonError, RwLock};
 
 /// One mesh asset's triangles, ready for exact ray casts in the mesh's own space.

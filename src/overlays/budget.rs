@@ -51,7 +51,7 @@ impl LineBudget {
     pub(crate) fn draw_box(
         &mut self,
         gizmos: &mut Gizmos<AccelGizmos>,
-        bounds: &accel::Aabb,
+        bounds: &spatial_accel::Aabb,
         color: Color,
     ) -> bool {
         if !bounds.is_valid() || !self.take(BOX_LINES) {

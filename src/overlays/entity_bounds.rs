@@ -3,10 +3,10 @@
 use super::budget::LineBudget;
 use super::{AccelGizmos, AccelOverlaySettings, culling_view};
 use crate::AccelTrees;
-use accel::SpatialQuery;
 use bevy::camera::visibility::VisibleEntities;
 use bevy::ecs::entity::EntityHashMap;
 use bevy::prelude::*;
+use spatial_accel::SpatialQuery;
 
 /// Seen by the culling view.
 const VISIBLE: Color = Color::srgb(0.2, 0.95, 0.3);

@@ -3,9 +3,9 @@
 use super::budget::LineBudget;
 use super::{AccelGizmos, AccelOverlaySettings, culling_view};
 use crate::AccelTrees;
-use accel::Frustum as AccelFrustum;
 use bevy::camera::primitives::Frustum;
 use bevy::prelude::*;
+use spatial_accel::Frustum as AccelFrustum;
 
 const FRUSTUM: Color = Color::srgb(1.0, 0.85, 0.1);
 

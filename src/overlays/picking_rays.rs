@@ -3,12 +3,12 @@
 use super::budget::LineBudget;
 use super::{AccelGizmos, AccelOverlaySettings, level_color};
 use crate::{AccelRayCast, AccelTrees};
-use accel::Ray;
-use accel::query::{NodeView, visit_tree_nodes};
 use bevy::picking::backend::ray::RayMap;
 use bevy::picking::mesh_picking::ray_cast::MeshRayCastSettings;
 use bevy::prelude::*;
 use core::ops::ControlFlow;
+use spatial_accel::Ray;
+use spatial_accel::query::{NodeView, visit_tree_nodes};
 
 const RAY: Color = Color::WHITE;
 const HIT: Color = Color::srgb(1.0, 0.2, 0.9);

@@ -3,9 +3,9 @@
 use super::budget::LineBudget;
 use super::{AccelGizmos, AccelOverlaySettings, level_color};
 use crate::AccelTrees;
-use accel::query::{NodeView, visit_tree_nodes};
 use bevy::prelude::*;
 use core::ops::ControlFlow;
+use spatial_accel::query::{NodeView, visit_tree_nodes};
 
 /// Draws the nodes of the static tree and of the dynamic index in the chosen depth range,
 /// each tree shallowest levels first (the walks are breadth first), sharing what is left of

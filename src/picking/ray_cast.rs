@@ -5,10 +5,6 @@ use crate::meshes::{
 };
 use crate::sync::placement;
 use crate::{AccelTrees, LocalFrame};
-use accel::query::ray_walk::closest_hit_announcing;
-use accel::{
-    Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
-};
 use bevy::camera::primitives::{Aabb as BevyAabb, Frustum};
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
 use bevy::ecs::entity::Entities;
@@ -22,6 +18,10 @@ use bevy::picking::mesh_picking::ray_cast::{
 };
 use bevy::prelude::*;
 use core::ops::ControlFlow;
+use spatial_accel::query::ray_walk::closest_hit_announcing;
+use spatial_accel::{
+    Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
+};
 use std::borrow::Cow;
 
 /// The entities Bevy's `MeshRayCast` can hit: those with a mesh.
@@ -222,7 +222,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
 
     /// Tracked entities whose world box overlaps `sphere`, sorted.
     pub fn overlap_sphere(&mut self, sphere: BoundingSphere) -> &[Entity] {
-        let query = accel::Sphere::new(sphere.center, sphere.radius());
+        let query = spatial_accel::Sphere::new(sphere.center, sphere.radius());
         let r2 = sphere.radius() * sphere.radius();
         self.overlap(
             |q, visit| q.for_each_overlapping_sphere(&query, visit),

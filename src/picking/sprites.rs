@@ -8,7 +8,6 @@
 
 use super::AccelPickingCamera;
 use crate::{AccelIgnore, AccelSettings, AccelTracked, AccelTrees};
-use accel::{Ray, SpatialQuery};
 use bevy::asset::Assets;
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::RenderLayers;
@@ -24,6 +23,7 @@ use bevy::picking::{Pickable, PickingSystems};
 use bevy::prelude::*;
 use bevy::sprite::{Anchor, Sprite};
 use bevy::window::PrimaryWindow;
+use spatial_accel::{Ray, SpatialQuery};
 
 /// Which part of a sprite a pointer must be over, as Bevy's `SpritePickingMode`.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]

@@ -4,13 +4,15 @@
 use super::scene::{PreviewMesh, PreviewObject, PreviewObjects};
 use crate::AccelTrees;
 use crate::picking::{AccelMeshCache, MeshShape};
-use accel::preview::{PreviewCamera, PreviewLight, PreviewMaterial, Texture, TextureFilter};
 use bevy::camera::Exposure;
 use bevy::ecs::system::SystemParam;
 use bevy::image::Image;
 use bevy::light::GlobalAmbientLight;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use spatial_accel::preview::{
+    PreviewCamera, PreviewLight, PreviewMaterial, Texture, TextureFilter,
+};
 use std::sync::Arc;
 
 /// The main view: the active 3D camera of lowest order.

@@ -19,7 +19,7 @@ use bevy::diagnostic::{Diagnostic, DiagnosticPath, RegisterDiagnostic};
 use bevy::prelude::*;
 use core::time::Duration;
 
-/// What the preview draws: [`accel::preview::PreviewMode`], as a reflectable setting.
+/// What the preview draws: [`spatial_accel::preview::PreviewMode`], as a reflectable setting.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Default)]
 pub enum AccelPreviewMode {
@@ -67,8 +67,8 @@ impl AccelPreviewMode {
     ];
 
     /// The core's view.
-    pub fn to_core(self) -> accel::preview::PreviewMode {
-        use accel::preview::PreviewMode as M;
+    pub fn to_core(self) -> spatial_accel::preview::PreviewMode {
+        use spatial_accel::preview::PreviewMode as M;
         match self {
             Self::Shaded => M::Shaded,
             Self::AmbientOcclusion { samples, radius } => M::AmbientOcclusion { samples, radius },

@@ -3,12 +3,12 @@
 
 use crate::AccelTrees;
 use crate::picking::CachedMesh;
-use accel::mesh::{CountedHit, TraversalCost};
-use accel::preview::{MeshSurface, PreviewScene, SurfaceHit};
-use accel::{Backfaces, Ray, SpatialQuery};
 use bevy::math::{Affine3A, Mat3A};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use spatial_accel::mesh::{CountedHit, TraversalCost};
+use spatial_accel::preview::{MeshSurface, PreviewScene, SurfaceHit};
+use spatial_accel::{Backfaces, Ray, SpatialQuery};
 use std::sync::Arc;
 
 /// One mesh's BVH and the vertex data shading reads.

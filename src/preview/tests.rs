@@ -3,12 +3,14 @@
 use super::extract::PreviewWorld;
 use super::scene::{EntityPreviewScene, PreviewObjects};
 use crate::prelude::*;
-use accel::preview::{BruteForcePreviewScene, PreviewCamera, PreviewInstance, PreviewScene};
 use accel_testkit::Rng;
 use bevy::camera::visibility::VisibilityPlugin;
 use bevy::ecs::system::RunSystemOnce;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use spatial_accel::preview::{
+    BruteForcePreviewScene, PreviewCamera, PreviewInstance, PreviewScene,
+};
 use std::sync::Arc;
 
 fn app() -> App {

@@ -5,9 +5,6 @@
 use super::extract::PreviewWorld;
 use super::scene::{EntityPreviewScene, PreviewObjects};
 use super::{AccelPreviewSettings, AccelPreviewStats};
-use accel::preview::{
-    FrameBudget, PreviewImage, PreviewLight, PreviewSettings, PreviewTracer, Texture,
-};
 use bevy::asset::RenderAssetUsages;
 use bevy::diagnostic::Diagnostics;
 use bevy::image::Image;
@@ -15,6 +12,9 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::tasks::ComputeTaskPool;
+use spatial_accel::preview::{
+    FrameBudget, PreviewImage, PreviewLight, PreviewSettings, PreviewTracer, Texture,
+};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -2,9 +2,9 @@
 //! the benchmarks' mixed cloud of entity boxes.
 
 use crate::Rng;
-use accel::Aabb;
 use core::ops::Range;
 use glam::Vec3A;
+use spatial_accel::Aabb;
 
 /// A random box: centre uniform in `[-extent, extent)^3`, each half extent uniform in `half`.
 pub fn random_box(rng: &mut Rng, extent: f32, half: Range<f32>) -> Aabb {

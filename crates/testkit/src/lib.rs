@@ -1,6 +1,6 @@
 //! # accel_testkit
 //!
-//! The inputs that the tests, benchmarks and examples of `accel` and `bevy_accel` share,
+//! The inputs that the tests, benchmarks and examples of `spatial_accel` and `bevy_accel` share,
 //! each written once:
 //!
 //! - [`Rng`]: a seeded generator (PCG32) with the draws the tests use: bits, floats in
@@ -17,8 +17,8 @@
 //! Everything is deterministic: the same seed gives the same scene on every machine, so a
 //! failing case is reproduced by its seed alone.
 //!
-//! Types from `accel` (`Aabb`, `Triangle`) are those of the `accel` library crate. A unit test
-//! inside `accel` is compiled with a second copy of that crate, whose types differ; it can use
+//! Types from `spatial_accel` (`Aabb`, `Triangle`) are those of the `spatial_accel` library crate. A unit test
+//! inside `spatial_accel` is compiled with a second copy of that crate, whose types differ; it can use
 //! the items here that return plain numbers and glam types ([`Rng`], [`Mesh`], [`shapes`]).
 #![warn(missing_docs)]
 

@@ -1,8 +1,8 @@
 //! An indexed triangle mesh, with the conversions the trees take and the `f64` checks the
 //! watertightness tests need.
 
-use accel::Triangle;
 use glam::{DVec3, Vec3, Vec3A};
+use spatial_accel::Triangle;
 use std::collections::HashMap;
 
 /// A triangle mesh given by shared vertices and counter-clockwise (outward) index triples.
@@ -25,7 +25,7 @@ impl Mesh {
         (0..self.indices.len()).map(|i| self.triangle(i))
     }
 
-    /// Every triangle as an `accel` [`Triangle`], in index order.
+    /// Every triangle as an `spatial_accel` [`Triangle`], in index order.
     pub fn to_triangles(&self) -> Vec<Triangle> {
         self.triangles()
             .map(|[a, b, c]| Triangle::new(a, b, c))

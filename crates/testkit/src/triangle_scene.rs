@@ -2,8 +2,8 @@
 //! detailed, among large random triangles.
 
 use crate::{Rng, bunny};
-use accel::{Aabb, Triangle};
 use glam::{Mat4, Quat, Vec3, Vec3A};
+use spatial_accel::{Aabb, Triangle};
 
 /// Half the side of the cube the triangle scene lives in.
 pub const TRI_EXTENT: f32 = 100.0;

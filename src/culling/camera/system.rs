@@ -12,13 +12,13 @@ use crate::culling::slot_order::FoundSlots;
 use crate::culling::stats::CullingStats;
 use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
-use accel::{Containment, Frustum as AccelFrustum};
 use bevy::camera::primitives::Frustum;
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, VisibleEntities, VisibleEntityRanges};
 use bevy::ecs::entity::{Entities, EntityHashMap};
 use bevy::math::Vec4;
 use bevy::prelude::*;
 use bevy::utils::Parallel;
+use spatial_accel::{Containment, Frustum as AccelFrustum};
 use std::time::Instant;
 
 /// Above this fraction of entities visible (in the view's previous frame), a flat

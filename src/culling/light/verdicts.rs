@@ -3,7 +3,7 @@
 //! Bevy tests every shadow caster against every light view: a point light's sphere test and
 //! then six oriented-box tests, one per cube face; a spot light's sphere and frustum; a sun's
 //! cascades, one frustum each. One walk of the trees over all of a view's lists at once
-//! ([`accel::SpatialQuery::for_each_in_views`]) settles most of these tests: a caster whose
+//! ([`spatial_accel::SpatialQuery::for_each_in_views`]) settles most of these tests: a caster whose
 //! tree box lies wholly inside a list's frustum (and the light's range) goes into that list
 //! with no test, one whose tree box lies outside it is not tested for it, and only the lists
 //! whose boundary crosses its leaf get Bevy's test.
@@ -18,12 +18,12 @@ use super::views::CasterTest;
 use super::walks::{ViewKey, light_sphere_may_reach, walk_shape};
 use crate::culling::bevy_rounding::grown_past_rounding;
 use crate::trees::AccelTrees;
-use accel::SpatialQuery;
-use accel::query::views::{ViewClassification, ViewMasks};
-use accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
 use bevy::camera::primitives::{Aabb, Sphere};
 use bevy::math::Vec4;
 use bevy::prelude::*;
+use spatial_accel::SpatialQuery;
+use spatial_accel::query::views::{ViewClassification, ViewMasks};
+use spatial_accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
 use std::collections::HashMap;
 
 /// Most lists a light view may have for the trees to settle its tests: a point light has six

@@ -11,10 +11,10 @@ use crate::culling::bevy_rounding::tree_plane;
 use crate::culling::slot_order::FoundSlots;
 use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
-use accel::Frustum as AccelFrustum;
 use bevy::camera::primitives::{Frustum, Sphere};
 use bevy::math::Vec4;
 use bevy::prelude::*;
+use spatial_accel::Frustum as AccelFrustum;
 use std::collections::HashMap;
 
 /// The planes of a light view as the trees test them. Point and spot lights test all six;
@@ -36,7 +36,7 @@ pub(super) fn light_planes(frustum: &Frustum, near: bool) -> [Vec4; 6] {
 /// along that axis, which is at most the half-diagonal of any box holding the entity. Both
 /// the center and that box lie in `b`, so `b` can be dropped when it is farther from the light
 /// than the range plus its own half-diagonal (with a little slack for rounding).
-pub(super) fn light_sphere_may_reach(sphere: &Sphere, b: &accel::Aabb) -> bool {
+pub(super) fn light_sphere_may_reach(sphere: &Sphere, b: &spatial_accel::Aabb) -> bool {
     let reach = (sphere.radius + b.half_extents().length()) * (1.0 + 1e-3);
     b.distance_squared_to_point(sphere.center) <= reach * reach
 }
@@ -79,7 +79,7 @@ pub(super) struct LightCandidates {
     /// among them are skipped: they come again in `others`.
     walked: Vec<(Entity, u16)>,
     /// The view's lists' frusta as the walk tests them (scratch).
-    walk_frusta: Vec<accel::Frustum>,
+    walk_frusta: Vec<spatial_accel::Frustum>,
     /// The shape of the view being gathered (scratch).
     shape: Vec<u32>,
     /// Everything a walk cannot find (see [`UntrackedEntities`]).

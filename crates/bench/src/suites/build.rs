@@ -11,16 +11,16 @@ use super::{incoherent_rays, point};
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::{best_of, per_item};
-use accel::bvh::SphereBvh;
-use accel::bvh::stats::tree_stats;
-use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
-use accel::mesh::{MeshBvh, SpatialSplits};
-use accel::query::BoundingTree;
-use accel::{
+use accel_testkit::{BoxScene, box_scene};
+use spatial_accel::bvh::SphereBvh;
+use spatial_accel::bvh::stats::tree_stats;
+use spatial_accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
+use spatial_accel::mesh::{MeshBvh, SpatialSplits};
+use spatial_accel::query::BoundingTree;
+use spatial_accel::{
     Aabb, Backfaces, BuildConfig, Bvh, Ray, SahCosts, SpatialQuery, SplitStrategy, Triangle,
     WatertightRay,
 };
-use accel_testkit::{BoxScene, box_scene};
 
 const SPLITS: [(&str, SplitStrategy); 9] = [
     ("midpoint", SplitStrategy::Midpoint),

@@ -13,9 +13,9 @@
 use super::point;
 use crate::json::{Point, Report};
 use crate::timing::best_of;
-use accel::{Aabb, Backfaces, Containment, Frustum, Ray, Sphere, Triangle, WatertightRay};
 use accel_testkit::Rng;
 use glam::{Affine3A, Mat4, Quat, Vec3, Vec3A};
+use spatial_accel::{Aabb, Backfaces, Containment, Frustum, Ray, Sphere, Triangle, WatertightRay};
 use std::hint::black_box;
 
 /// Inputs per batch.

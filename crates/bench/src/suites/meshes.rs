@@ -20,12 +20,12 @@ use super::rounds::{Contender, median_ratio, run_rounds, seconds};
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::median;
-use accel::bvh::stats::tree_stats;
-use accel::mesh::{MeshBvh, SpatialSplits};
-use accel::query::BoundingTree;
-use accel::{Aabb, BuildConfig, SahCosts, SplitStrategy};
 use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
+use spatial_accel::bvh::stats::tree_stats;
+use spatial_accel::mesh::{MeshBvh, SpatialSplits};
+use spatial_accel::query::BoundingTree;
+use spatial_accel::{Aabb, BuildConfig, SahCosts, SplitStrategy};
 use std::time::Duration;
 
 /// The target for a refit, in ns per triangle.

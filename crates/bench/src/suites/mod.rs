@@ -38,9 +38,9 @@ pub mod plugin_common;
 
 use crate::Options;
 use crate::json::{Point, Report};
-use accel::Ray;
 use accel_testkit::Rng;
 use glam::Vec3A;
+use spatial_accel::Ray;
 
 /// Runs the suite named `name`.
 pub fn run(name: &str, opts: &Options) -> Report {

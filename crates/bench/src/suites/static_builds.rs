@@ -1,5 +1,5 @@
 //! The table of BENCHMARKS.md's "Static BVH builds", as part of the `build` suite:
-//! single-threaded builds of `accel::Bvh` over the 1M triangles (a triangle build's time
+//! single-threaded builds of `spatial_accel::Bvh` over the 1M triangles (a triangle build's time
 //! includes making the triangle boxes, as obvhs' `*_from_tris` does) and over the 100k entity
 //! boxes, round by round against obvhs 0.3.3's BVH2 (and, when `TINYBVH_PEER` names the binary
 //! that `crates/bench/peers/tinybvh/tinybvh.sh` builds, tinybvh's single-threaded
@@ -15,13 +15,15 @@ use super::rounds::{Contender, median_ratio, run_rounds, seconds};
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
-use accel::bvh::stats::tree_stats;
-use accel::bvh::wide::{Bvh8, Bvh16};
-use accel::query::BoundingTree;
-use accel::{Aabb, BuildConfig, Bvh, Containment, SahCosts, SpatialQuery, SplitStrategy, Triangle};
 use accel_testkit::{entity_boxes, triangle_scene};
 use glam::Vec3A;
 use obvhs::BvhBuildParams;
+use spatial_accel::bvh::stats::tree_stats;
+use spatial_accel::bvh::wide::{Bvh8, Bvh16};
+use spatial_accel::query::BoundingTree;
+use spatial_accel::{
+    Aabb, BuildConfig, Bvh, Containment, SahCosts, SpatialQuery, SplitStrategy, Triangle,
+};
 use std::time::Duration;
 
 /// Our strategies in the table's triangle rows, in its order.

@@ -15,11 +15,11 @@ use super::{incoherent_rays, point};
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::per_item;
-use accel::query::DynamicIndex;
-use accel::{
+use accel_testkit::{Rng, random_box};
+use spatial_accel::query::DynamicIndex;
+use spatial_accel::{
     Aabb, DynamicBvh, DynamicBvhConfig, LooseOctree, Ray, SahCosts, SpatialQuery, UniformGrid,
 };
-use accel_testkit::{Rng, random_box};
 use std::time::{Duration, Instant};
 
 const EXTENT: f32 = 500.0;

@@ -1,4 +1,4 @@
-//! What the shared walks of `accel::query::walks` and `accel::query::views` cost per query,
+//! What the shared walks of `spatial_accel::query::walks` and `spatial_accel::query::views` cost per query,
 //! through every tree they serve: the static binary `Bvh`, the `DynamicBvh`, the 8-wide `Bvh8`
 //! and the `SphereBvh` over one box scene, with closest-hit rays, single frusta, six views at
 //! once (a point light's faces), box overlap and the 8 nearest. Every query but the wide
@@ -11,22 +11,22 @@
 //! groups, 1,024 box queries and 1,024 8-nearest queries. Median of 7 rounds, ns per query
 //! (the scan: one round).
 //!
-//! This replaces `crates/accel/examples/walk_timing.rs`; its table is BENCHMARKS.md's
+//! This replaces `crates/spatial_accel/examples/walk_timing.rs`; its table is BENCHMARKS.md's
 //! "Shared walks".
 
 use super::point;
 use crate::json::{Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
-use accel::bvh::SphereBvh;
-use accel::bvh::wide::Bvh8;
-use accel::query::views::ViewClassification;
-use accel::query::{BoundingTree, BruteForceIndex, RayWalk, ray_walk, walks};
-use accel::{
-    Aabb, BuildConfig, Bvh, Containment, DynamicBvh, Frustum, Ray, SpatialQuery, SplitStrategy,
-};
 use core::ops::ControlFlow;
 use glam::{Mat4, Vec3, Vec3A};
+use spatial_accel::bvh::SphereBvh;
+use spatial_accel::bvh::wide::Bvh8;
+use spatial_accel::query::views::ViewClassification;
+use spatial_accel::query::{BoundingTree, BruteForceIndex, RayWalk, ray_walk, walks};
+use spatial_accel::{
+    Aabb, BuildConfig, Bvh, Containment, DynamicBvh, Frustum, Ray, SpatialQuery, SplitStrategy,
+};
 use std::hint::black_box;
 use std::time::Instant;
 

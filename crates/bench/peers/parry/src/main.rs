@@ -1,4 +1,4 @@
-//! accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of the bench tool's
+//! spatial_accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of the bench tool's
 //! dynamic BVH rows (`crates/bench/src/suites/common/dynamic_workload.rs`): 100,000 boxes,
 //! centres uniform in [-200, 200]^3, half extents 0.1-1.0, one thread, both trees in the same
 //! process, each figure the best of several runs.
@@ -14,7 +14,7 @@
 //!
 //! `cargo run --release --manifest-path crates/bench/peers/parry/Cargo.toml`
 
-use accel::Aabb;
+use spatial_accel::Aabb;
 use glam::Vec3A;
 use parry3d::bounding_volume::Aabb as ParryAabb;
 use parry3d::math::Vector;

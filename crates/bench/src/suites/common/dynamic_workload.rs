@@ -5,9 +5,9 @@
 //! numbers that move them).
 #![allow(dead_code)]
 
-use accel::Aabb;
-use accel::dynamic::{DynamicBvh, LeafHandle};
 use accel_testkit::{Rng, uniform_boxes};
+use spatial_accel::Aabb;
+use spatial_accel::dynamic::{DynamicBvh, LeafHandle};
 
 /// `n` boxes of the workload.
 pub fn scene(n: usize, seed: u64) -> Vec<Aabb> {

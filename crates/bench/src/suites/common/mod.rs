@@ -8,10 +8,10 @@ pub mod dynamic_workload;
 pub mod peers;
 pub mod tinybvh;
 
-use accel::{Aabb, Frustum};
 use accel_testkit::Rng;
 use accel_testkit::boxes::ENTITY_EXTENT;
 use glam::{Mat4, Vec3, Vec3A};
+use spatial_accel::{Aabb, Frustum};
 
 /// Incoherent rays: origins uniform in the scene cube, directions uniform on the sphere
 /// (unit length, so every crate measures `t` in the same units).

@@ -1,10 +1,10 @@
 //! The peer crates seen through our types: their trees as [`BoundingTree`]s, so one SAH cost
-//! function ([`accel::bvh::stats::tree_stats`]) and one cost model rate every tree, and their
+//! function ([`spatial_accel::bvh::stats::tree_stats`]) and one cost model rate every tree, and their
 //! primitive types built from ours.
 
-use accel::query::BoundingTree;
-use accel::{Aabb, Triangle};
 use nalgebra::Point3;
+use spatial_accel::query::BoundingTree;
+use spatial_accel::{Aabb, Triangle};
 
 /// An obvhs box from ours.
 pub fn to_obvhs_aabb(b: &Aabb) -> obvhs::aabb::Aabb {

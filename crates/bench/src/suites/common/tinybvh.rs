@@ -8,8 +8,8 @@
 //! would give the accel crate a build script and a C++ compiler on every build. The process
 //! boundary is outside every timing: each command times itself in the child.
 
-use accel::Triangle;
 use glam::Vec3A;
+use spatial_accel::Triangle;
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};

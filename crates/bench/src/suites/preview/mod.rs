@@ -18,13 +18,13 @@ use super::point;
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::best_of;
-use accel::mesh::{CountedHit, InstancedScene};
-use accel::preview::{
+use scene::{instances, rmse, trace_parallel, tracer};
+use spatial_accel::mesh::{CountedHit, InstancedScene};
+use spatial_accel::preview::{
     IndexedPreviewScene, InstancedPreviewScene, PreviewImage, PreviewMode, PreviewScene, SurfaceHit,
 };
-use accel::query::{AnyIndex, IndexKind};
-use accel::{Backfaces, Ray};
-use scene::{instances, rmse, trace_parallel, tracer};
+use spatial_accel::query::{AnyIndex, IndexKind};
+use spatial_accel::{Backfaces, Ray};
 use std::hint::black_box;
 use std::sync::Mutex;
 use std::time::Instant;

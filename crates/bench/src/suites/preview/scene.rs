@@ -1,14 +1,14 @@
 //! The preview suite's scene (about 100k triangles: bunny copies, spheres and boxes on a
 //! ground quad, two lights), its tracers, and the threaded tile loop the suite times.
 
-use accel::mesh::MeshBvh;
-use accel::preview::{
-    MeshSurface, PreviewCamera, PreviewImage, PreviewInstance, PreviewLight, PreviewMaterial,
-    PreviewMode, PreviewScene, PreviewTracer,
-};
 use accel_testkit::shapes::{cube, icosphere};
 use accel_testkit::{Rng, bunny};
 use glam::{Affine3A, Mat4, Quat, Vec3};
+use spatial_accel::mesh::MeshBvh;
+use spatial_accel::preview::{
+    MeshSurface, PreviewCamera, PreviewImage, PreviewInstance, PreviewLight, PreviewMaterial,
+    PreviewMode, PreviewScene, PreviewTracer,
+};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -3,10 +3,10 @@
 //! precomputes its reciprocal direction at construction).
 
 use crate::suites::{camera_rays, incoherent_rays};
-use accel::mesh::MeshBvh;
-use accel::{Backfaces, Ray};
 use accel_testkit::{Rng, TRI_EXTENT};
 use glam::Vec3A;
+use spatial_accel::mesh::MeshBvh;
+use spatial_accel::{Backfaces, Ray};
 
 /// One kind of ray, in our type and the peers'.
 pub struct RaySet {

@@ -4,12 +4,12 @@
 
 use super::sets::RaySet;
 use crate::suites::common::peers::{self, BvhShape};
-use accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
-use accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
-use accel::{Aabb, Backfaces, BuildConfig, Bvh, SpatialQuery, Triangle, WatertightRay};
 use accel_testkit::InstancedTriangles;
 use glam::{Affine3A, Vec3};
 use obvhs::BvhBuildParams;
+use spatial_accel::bvh::wide::{Bvh4, Bvh8, QBvh8};
+use spatial_accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
+use spatial_accel::{Aabb, Backfaces, BuildConfig, Bvh, SpatialQuery, Triangle, WatertightRay};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 

@@ -4,13 +4,13 @@
 
 use super::oracle::{Queries, Volume, check_nearest, check_ray, check_volume, oracle_of};
 use super::{Sizes, Tally};
-use accel::bvh::SphereBvh;
-use accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
-use accel::dynamic::{LayeredIndex, StaticDynamicPair};
-use accel::query::{AnyIndex, DynamicIndex, IndexKind};
-use accel::{Aabb, BuildConfig, Bvh, DynamicBvh, Frustum, Ray, Sphere, SplitStrategy};
 use accel_testkit::{BoxScene, Rng, box_scene};
 use glam::{Mat4, Vec3, Vec3A};
+use spatial_accel::bvh::SphereBvh;
+use spatial_accel::bvh::wide::{Bvh4, Bvh8, Bvh16, QBvh8};
+use spatial_accel::dynamic::{LayeredIndex, StaticDynamicPair};
+use spatial_accel::query::{AnyIndex, DynamicIndex, IndexKind};
+use spatial_accel::{Aabb, BuildConfig, Bvh, DynamicBvh, Frustum, Ray, Sphere, SplitStrategy};
 use std::collections::HashMap;
 use std::time::Duration;
 

@@ -7,15 +7,15 @@
 
 use super::oracle::{Volume, check_ray, check_volume, oracle_of};
 use super::{Failure, Sizes, Tally};
-use accel::dynamic::StaticDynamicPair;
-use accel::mesh::{Instance, InstancedScene, MeshBvh};
-use accel::query::{BruteForceMesh, DynamicIndex, TriangleQuery};
-use accel::{
+use accel_testkit::{Rng, random_box};
+use glam::{Affine3A, Quat, Vec3, Vec3A};
+use spatial_accel::dynamic::StaticDynamicPair;
+use spatial_accel::mesh::{Instance, InstancedScene, MeshBvh};
+use spatial_accel::query::{BruteForceMesh, DynamicIndex, TriangleQuery};
+use spatial_accel::{
     Aabb, Backfaces, BuildConfig, Bvh, DynamicBvh, DynamicBvhConfig, LooseOctree, Quadtree, Ray,
     UniformGrid,
 };
-use accel_testkit::{Rng, random_box};
-use glam::{Affine3A, Quat, Vec3, Vec3A};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
@@ -262,7 +262,9 @@ fn scene_updates(tally: &mut Tally, sizes: &Sizes) {
 
 /// Every drift run.
 pub fn run(tally: &mut Tally, sizes: &Sizes) {
-    let v = |r: Result<(), accel::dynamic::DynamicValidationError>| r.map_err(|e| format!("{e:?}"));
+    let v = |r: Result<(), spatial_accel::dynamic::DynamicValidationError>| {
+        r.map_err(|e| format!("{e:?}"))
+    };
     run_index(tally, "DynamicBvh", DynamicBvh::new(), sizes, 1, |t| {
         v(t.validate())
     });

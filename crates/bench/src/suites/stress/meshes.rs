@@ -7,11 +7,13 @@
 //! structure's closest hit must also be the oracle's (`BruteForceMesh`), to the bit.
 
 use super::{Failure, Sizes, Tally};
-use accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
-use accel::query::{BruteForceMesh, TriangleQuery};
-use accel::{Backfaces, BuildConfig, Bvh, DynamicBvh, Ray, SpatialQuery, Triangle, WatertightRay};
 use accel_testkit::{Mesh, Rng, shapes};
 use glam::{Affine3A, DVec3, Vec3};
+use spatial_accel::mesh::{Instance, InstancedScene, MeshBvh, SpatialSplits};
+use spatial_accel::query::{BruteForceMesh, TriangleQuery};
+use spatial_accel::{
+    Backfaces, BuildConfig, Bvh, DynamicBvh, Ray, SpatialQuery, Triangle, WatertightRay,
+};
 use std::sync::Arc;
 
 /// Where a mesh is put: the offset of its centre and its half size. Each keeps the f32

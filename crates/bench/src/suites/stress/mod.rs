@@ -1,5 +1,5 @@
 //! The numerical-stability stress suite: every structure and query under hostile input,
-//! each answer compared with the brute-force oracles of `accel::query`.
+//! each answer compared with the brute-force oracles of `spatial_accel::query`.
 //!
 //! - [`meshes`]: closed meshes far from the origin, huge and tiny, hit by rays from outside
 //!   to inside (axis-parallel, grazing, through vertices and shared edges): every one must hit.

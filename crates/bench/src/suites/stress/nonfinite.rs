@@ -5,12 +5,12 @@
 use super::boxes::structures;
 use super::oracle::{Volume, check_nearest, check_ray, check_volume, oracle_of};
 use super::{Failure, Sizes, Tally};
-use accel::mesh::{Instance, InstancedScene, MeshBvh};
-use accel::query::{BruteForceMesh, DynamicIndex, IndexKind, TriangleQuery};
-use accel::{Aabb, Backfaces, DynamicBvh, Frustum, Ray, Sphere, UniformGrid};
-use accel::{LooseOctree, Quadtree};
 use accel_testkit::{Rng, uniform_boxes};
 use glam::{Affine3A, Mat4, Vec3, Vec3A, Vec4};
+use spatial_accel::mesh::{Instance, InstancedScene, MeshBvh};
+use spatial_accel::query::{BruteForceMesh, DynamicIndex, IndexKind, TriangleQuery};
+use spatial_accel::{Aabb, Backfaces, DynamicBvh, Frustum, Ray, Sphere, UniformGrid};
+use spatial_accel::{LooseOctree, Quadtree};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
@@ -220,7 +220,7 @@ fn check_mesh(tally: &mut Tally, name: &str, mesh: &MeshBvh, oracle: &BruteForce
             // To the bit, but with the zeros one: two triangles tied at the ray's origin may
             // give `-0.0` and `+0.0` (the sign of a zero numerator), and which of the tie the
             // tree and the oracle meet first is their order, not an error.
-            let bits = |h: Option<accel::mesh::MeshHit>| h.map(|h| (h.t + 0.0).to_bits());
+            let bits = |h: Option<spatial_accel::mesh::MeshHit>| h.map(|h| (h.t + 0.0).to_bits());
             if bits(got) != bits(want) || any != want.is_some() {
                 tally.fail(name, "mesh ray", Failure::Miss, || {
                     format!("{ray:?}: got {got:?}, oracle {want:?}")
@@ -388,7 +388,7 @@ pub fn run(tally: &mut Tally, sizes: &Sizes) {
         tally,
         &mut rng,
         "AnyIndex BruteForce",
-        accel::query::AnyIndex::new(IndexKind::BruteForce),
+        spatial_accel::query::AnyIndex::new(IndexKind::BruteForce),
         per_index,
         |_| Ok(()),
     );

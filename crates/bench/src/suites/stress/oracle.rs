@@ -1,11 +1,11 @@
-//! Every box query of a structure against `accel::query::BruteForceIndex` over the same
+//! Every box query of a structure against `spatial_accel::query::BruteForceIndex` over the same
 //! entries, after the exact test on each candidate (as the conformance suite compares).
 
 use super::{Failure, Tally};
-use accel::query::BruteForceIndex;
-use accel::{Aabb, Frustum, Ray, RayHit, SpatialQuery, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
+use spatial_accel::query::BruteForceIndex;
+use spatial_accel::{Aabb, Frustum, Ray, RayHit, SpatialQuery, Sphere};
 use std::collections::HashMap;
 
 /// The queries of [`SpatialQuery`] with their callbacks fixed, so that structures of every
@@ -126,7 +126,7 @@ fn valid(b: &Aabb) -> Option<&Aabb> {
 
 /// The oracle over `live` (its valid entries: the oracle refuses the others).
 pub fn oracle_of(live: &HashMap<u32, Aabb>) -> BruteForceIndex {
-    use accel::query::DynamicIndex;
+    use spatial_accel::query::DynamicIndex;
     let mut o = BruteForceIndex::new();
     let mut ids: Vec<_> = live.iter().collect();
     ids.sort_by_key(|(id, _)| **id);

@@ -24,13 +24,13 @@ use crate::suites::common::dynamic_workload::{built_tree, scene};
 use crate::suites::common::frustum_selecting;
 use crate::suites::{incoherent_rays, point};
 use crate::timing::best_of;
-use accel::grid::{GridConfig, UniformGrid};
-use accel::octree::{LooseOctree, OctreeConfig};
-use accel::query::DynamicIndex;
-use accel::{Aabb, Containment, DynamicBvh, Frustum, Ray, SpatialQuery};
 use accel_testkit::Rng;
 use core::ops::ControlFlow;
 use glam::Vec3A;
+use spatial_accel::grid::{GridConfig, UniformGrid};
+use spatial_accel::octree::{LooseOctree, OctreeConfig};
+use spatial_accel::query::DynamicIndex;
+use spatial_accel::{Aabb, Containment, DynamicBvh, Frustum, Ray, SpatialQuery};
 use std::hint::black_box;
 use std::time::Duration;
 

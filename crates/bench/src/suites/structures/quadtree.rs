@@ -30,13 +30,13 @@ use crate::json::Report;
 use crate::progress::Progress;
 use crate::suites::point;
 use crate::timing::median;
-use accel::octree::{OctreeConfig, OctreeHandle, Quadtree};
-use accel::{Aabb, SpatialQuery};
 use accel_testkit::Rng;
 use core::ops::ControlFlow;
 use glam::Vec3A;
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
+use spatial_accel::octree::{OctreeConfig, OctreeHandle, Quadtree};
+use spatial_accel::{Aabb, SpatialQuery};
 
 /// Half the side of the square world.
 const WORLD: f32 = 1000.0;

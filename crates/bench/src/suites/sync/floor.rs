@@ -14,14 +14,14 @@ use std::time::{Duration, Instant};
 /// Each entity's last world box, by entity index: the least a query needs of a mover.
 #[derive(Resource, Default)]
 pub struct FloorBoxes {
-    boxes: Vec<accel::Aabb>,
+    boxes: Vec<spatial_accel::Aabb>,
     /// The time the last frame's pass took.
     pub elapsed: Duration,
     /// Movers the last frame's pass stored.
     pub moved: usize,
 }
 
-/// The bare pass: the plugin's own placement maths (`accel::Aabb::transformed`), its finite
+/// The bare pass: the plugin's own placement maths (`spatial_accel::Aabb::transformed`), its finite
 /// check, and one store.
 fn store_moved_boxes(
     moved: Query<(Entity, &Aabb, &GlobalTransform), Changed<GlobalTransform>>,
@@ -31,14 +31,14 @@ fn store_moved_boxes(
     let floor = &mut *floor;
     let mut count = 0;
     moved.iter().for_each(|(entity, aabb, transform)| {
-        let local = accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents);
+        let local = spatial_accel::Aabb::from_center_half_extents(aabb.center, aabb.half_extents);
         let world = local.transformed(&transform.affine());
         if !world.is_finite() {
             return;
         }
         let index = entity.index_u32() as usize;
         if floor.boxes.len() <= index {
-            floor.boxes.resize(index + 1, accel::Aabb::EMPTY);
+            floor.boxes.resize(index + 1, spatial_accel::Aabb::EMPTY);
         }
         floor.boxes[index] = world;
         count += 1;

@@ -1,4 +1,4 @@
-//! The BSP tree (`accel::bsp`) on the Stanford bunny as read (3,674 triangles): its build
+//! The BSP tree (`spatial_accel::bsp`) on the Stanford bunny as read (3,674 triangles): its build
 //! with the default `BspConfig` (8 candidate planes a node, priced on up to 128 triangles,
 //! splits weighted 4 against imbalance), one painter's order of every piece from an eye
 //! outside the bunny, and 1,000 closest-hit rays through the bunny's box (the watertight test
@@ -12,11 +12,11 @@ use super::TestMesh;
 use crate::json::{Report, StressRow};
 use crate::suites::{incoherent_rays, point};
 use crate::timing::{best_of, median};
-use accel::bsp::BspTree;
-use accel::mesh::MeshBvh;
-use accel::query::TriangleQuery;
-use accel::{Backfaces, Ray};
 use glam::Vec3A;
+use spatial_accel::bsp::BspTree;
+use spatial_accel::mesh::MeshBvh;
+use spatial_accel::query::TriangleQuery;
+use spatial_accel::{Backfaces, Ray};
 use std::time::Instant;
 
 /// Rays through the bunny's box.

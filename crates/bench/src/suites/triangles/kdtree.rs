@@ -1,4 +1,4 @@
-//! The kd-tree (`accel::kdtree`):
+//! The kd-tree (`spatial_accel::kdtree`):
 //!
 //! - builds: the event sweep (O(N log N)) and the sort-each-level build (O(N log^2 N)) on
 //!   the benchmarks' triangle scene (bunny copies among large triangles) from 10k to 1M
@@ -23,11 +23,11 @@ use crate::json::{Report, StressRow};
 use crate::progress::Progress;
 use crate::suites::point;
 use crate::timing::{best_of, median};
-use accel::kdtree::{KdBuild, KdTree, KdTreeConfig, KdTreeStats};
-use accel::mesh::MeshBvh;
-use accel::{Aabb, Backfaces, Ray, WatertightRay};
 use accel_testkit::Rng;
 use glam::{Vec3, Vec3A};
+use spatial_accel::kdtree::{KdBuild, KdTree, KdTreeConfig, KdTreeStats};
+use spatial_accel::mesh::MeshBvh;
+use spatial_accel::{Aabb, Backfaces, Ray, WatertightRay};
 use std::time::Instant;
 
 /// What this part measures; `--quick` shrinks it.

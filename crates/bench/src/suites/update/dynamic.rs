@@ -13,7 +13,7 @@ mod frames;
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::suites::common::dynamic_workload::{built_tree, scene};
-use accel::Aabb;
+use spatial_accel::Aabb;
 
 /// Our box as obvhs's.
 fn to_obvhs(b: &Aabb) -> obvhs::aabb::Aabb {

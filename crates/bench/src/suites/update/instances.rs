@@ -10,17 +10,17 @@
 //! 100. Each frame, the moving instances take a step of up to 1% of the cube's side per axis.
 //! N = 10,000 and 100,000, 100 frames (1,000 and 10 frames with `--quick`).
 //!
-//! This replaces `crates/accel/examples/scene_update_timing.rs`; its Markdown lines are the
+//! This replaces `crates/spatial_accel/examples/scene_update_timing.rs`; its Markdown lines are the
 //! instance-update rows of BENCHMARKS.md's "Mesh builds and instanced scenes".
 
 use crate::json::{Report, StressRow};
 use crate::progress::Progress;
 use crate::suites::{incoherent_rays, point};
 use crate::timing::median;
-use accel::mesh::{Instance, InstancedScene, MeshBvh};
-use accel::{Backfaces, Ray};
 use accel_testkit::Rng;
 use glam::{Affine3A, Quat, Vec3};
+use spatial_accel::mesh::{Instance, InstancedScene, MeshBvh};
+use spatial_accel::{Backfaces, Ray};
 use std::sync::Arc;
 use std::time::Instant;
 

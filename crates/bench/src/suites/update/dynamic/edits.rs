@@ -7,11 +7,11 @@
 use super::{Row, Section, built_tree, scene, to_obvhs};
 use crate::suites::point;
 use crate::timing::median;
-use accel::{Aabb, DynamicBvhConfig};
 use accel_testkit::Rng;
 use glam::Vec3A;
 use obvhs::bvh2::Bvh2;
 use obvhs::faststack::HeapStack;
+use spatial_accel::{Aabb, DynamicBvhConfig};
 use std::hint::black_box;
 use std::time::Instant;
 

@@ -10,14 +10,16 @@ use super::{Row, Section, built_tree, fig, to_obvhs};
 use crate::suites::common::peers::ObvhsBvh2;
 use crate::suites::{incoherent_rays, point};
 use crate::timing::median;
-use accel::bvh::stats::tree_stats;
-use accel::dynamic::StaticDynamicPair;
-use accel::query::BruteForceIndex;
-use accel::{Aabb, BuildConfig, Bvh, DynamicBvh, DynamicBvhConfig, SpatialQuery, SplitStrategy};
 use accel_testkit::Rng;
 use glam::Vec3A;
 use obvhs::bvh2::Bvh2;
 use obvhs::faststack::HeapStack;
+use spatial_accel::bvh::stats::tree_stats;
+use spatial_accel::dynamic::StaticDynamicPair;
+use spatial_accel::query::BruteForceIndex;
+use spatial_accel::{
+    Aabb, BuildConfig, Bvh, DynamicBvh, DynamicBvhConfig, SpatialQuery, SplitStrategy,
+};
 use std::time::Instant;
 
 /// The moves of one frame, `(leaf, step)`, the same for every method (one seed).
