@@ -287,10 +287,10 @@ impl DynamicBvh {
         self.leaf_count += 1;
         self.optimizer.note_change();
         self.quality.note_edit();
-        Ok(LeafHandle {
-            index: leaf,
-            generation: self.arena.nodes[leaf as usize].generation,
-        })
+        Ok(LeafHandle::new(
+            leaf,
+            self.arena.nodes[leaf as usize].generation,
+        ))
     }
 
     /// Records a leaf's new tight bounds. Returns whether its fat box had to change (the
@@ -366,7 +366,7 @@ impl DynamicBvh {
     /// ```
     #[inline]
     pub fn prefetch_leaf(&self, handle: LeafHandle) {
-        let i = handle.index;
+        let i = handle.index();
         node::prefetch_index(&self.arena.nodes, i);
         if let Some(tight) = self.tight.get(i as usize) {
             crate::prefetch::prefetch_value(tight);
@@ -416,16 +416,7 @@ impl DynamicBvh {
             .iter()
             .enumerate()
             .filter(|(_, n)| n.is_leaf())
-            .map(|(i, n)| {
-                (
-                    LeafHandle {
-                        index: i as u32,
-                        generation: n.generation,
-                    },
-                    n.id,
-                    self.tight[i],
-                )
-            })
+            .map(|(i, n)| (LeafHandle::new(i as u32, n.generation), n.id, self.tight[i]))
     }
 
     /// Shape and SAH statistics, walking the whole tree (O(n)); see [`TreeStats`].
@@ -446,8 +437,8 @@ impl DynamicBvh {
 
     #[inline]
     fn check(&self, handle: LeafHandle) -> Result<u32, DynamicBvhError> {
-        match self.arena.nodes.get(handle.index as usize) {
-            Some(n) if n.is_leaf() && n.generation == handle.generation => Ok(handle.index),
+        match self.arena.nodes.get(handle.index() as usize) {
+            Some(n) if n.is_leaf() && n.generation == handle.generation() => Ok(handle.index()),
             _ => Err(DynamicBvhError::StaleHandle),
         }
     }

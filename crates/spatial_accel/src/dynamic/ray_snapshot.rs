@@ -146,7 +146,7 @@ impl LeafBoxes {
             boxes: Vec::with_capacity(n),
         };
         for (handle, id, bounds) in tree.leaves() {
-            leaves.arena.push(handle.index);
+            leaves.arena.push(handle.index());
             leaves.ids.push(id);
             leaves.boxes.push(bounds);
         }

@@ -7,26 +7,7 @@ use crate::query::IndexError;
 
 /// A handle to one entry of a [`UniformGrid`](super::UniformGrid): its slot and the slot's
 /// generation, so a handle kept past `remove` is stale rather than naming a later entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct GridHandle {
-    pub(super) slot: u32,
-    pub(super) generation: u32,
-}
-
-impl GridHandle {
-    /// The handle packed into 64 bits (to store it in a component or a slot map).
-    pub fn to_bits(self) -> u64 {
-        (u64::from(self.generation) << 32) | u64::from(self.slot)
-    }
-
-    /// The handle packed by [`GridHandle::to_bits`].
-    pub fn from_bits(bits: u64) -> Self {
-        Self {
-            slot: bits as u32,
-            generation: (bits >> 32) as u32,
-        }
-    }
-}
+pub type GridHandle = crate::query::Handle<super::UniformGrid>;
 
 /// `Entry::place` of a free slot.
 pub(super) const FREE: u32 = u32::MAX;
@@ -78,7 +59,7 @@ impl Slots {
     /// Asks for the entry and generation [`Self::find`] and an update read. A hint only.
     #[inline]
     pub fn prefetch(&self, handle: GridHandle) {
-        let slot = handle.slot as usize;
+        let slot = handle.index() as usize;
         if let (Some(entry), Some(generation)) =
             (self.entries.get(slot), self.generations.get(slot))
         {
@@ -90,17 +71,14 @@ impl Slots {
     /// The slot of a live handle.
     #[inline]
     pub fn find(&self, handle: GridHandle) -> Option<u32> {
-        let e = self.entries.get(handle.slot as usize)?;
-        (e.is_live() && self.generations[handle.slot as usize] == handle.generation)
-            .then_some(handle.slot)
+        let e = self.entries.get(handle.index() as usize)?;
+        (e.is_live() && self.generations[handle.index() as usize] == handle.generation())
+            .then_some(handle.index())
     }
 
     #[inline]
     pub fn handle(&self, slot: u32) -> GridHandle {
-        GridHandle {
-            slot,
-            generation: self.generations[slot as usize],
-        }
+        GridHandle::new(slot, self.generations[slot as usize])
     }
 
     /// A slot for a new entry; its `place` is left for the caller to set.

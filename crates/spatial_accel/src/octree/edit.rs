@@ -29,8 +29,8 @@ impl<const AXES: usize> LooseTree<AXES> {
         let start = self.root_holding(&bounds);
         let target = self.descend(start, &bounds);
         let handle = self.slots.allocate(target, 0);
-        let position = self.push_entry(target, id, bounds, handle.slot);
-        self.slots.relocate(handle.slot, target, position);
+        let position = self.push_entry(target, id, bounds, handle.index());
+        self.slots.relocate(handle.index(), target, position);
         self.len += 1;
         // A root grown for this box may have passed it down to a child.
         self.collapse_root();
@@ -71,8 +71,8 @@ impl<const AXES: usize> LooseTree<AXES> {
             return Ok(false);
         }
         let (id, _) = self.take_entry(from, slot.position);
-        let position = self.push_entry(target, id, bounds, handle.slot);
-        self.slots.relocate(handle.slot, target, position);
+        let position = self.push_entry(target, id, bounds, handle.index());
+        self.slots.relocate(handle.index(), target, position);
         self.tidy(from);
         self.collapse_root();
         Ok(true)
@@ -83,7 +83,7 @@ impl<const AXES: usize> LooseTree<AXES> {
     /// updating many entries in turn calls it a few entries ahead, as the plugin's sync does.
     #[inline]
     pub fn prefetch_entry(&self, handle: OctreeHandle) {
-        let Some(slot) = self.slots.slots.get(handle.slot as usize) else {
+        let Some(slot) = self.slots.slots.get(handle.index() as usize) else {
             return;
         };
         if let Some(octant) = self.arena.octants.get(slot.octant as usize) {
@@ -95,7 +95,7 @@ impl<const AXES: usize> LooseTree<AXES> {
     pub fn remove(&mut self, handle: OctreeHandle) -> Result<u32, IndexError> {
         let slot = self.slots.get(handle).ok_or(IndexError::StaleHandle)?;
         let (id, _) = self.take_entry(slot.octant, slot.position);
-        self.slots.release(handle.slot);
+        self.slots.release(handle.index());
         self.len -= 1;
         self.tidy(slot.octant);
         self.collapse_root();
@@ -134,10 +134,7 @@ impl<const AXES: usize> LooseTree<AXES> {
                 if s.octant == NONE || self.arena.get(s.octant).level != old {
                     return None;
                 }
-                let handle = OctreeHandle {
-                    slot,
-                    generation: s.generation,
-                };
+                let handle = OctreeHandle::new(slot, s.generation);
                 let bounds = self.arena.get(s.octant).entries[s.position as usize].bounds;
                 Some((handle, bounds))
             })

@@ -3,31 +3,18 @@
 
 use super::cells::NONE;
 
-/// A stable reference to one entry of a [`LooseTree`](super::LooseTree): valid from `insert`
-/// until `remove`.
+/// A stable reference to one entry of a [`LooseTree`](super::LooseTree) (a
+/// [`LooseOctree`](super::LooseOctree) or a [`Quadtree`](super::Quadtree)): valid from
+/// `insert` until `remove`.
 ///
 /// Entries move between octants as they move in space; the handle names a slot that follows
 /// them, and the slot's generation, which `remove` advances.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct OctreeHandle {
-    pub(super) slot: u32,
-    pub(super) generation: u32,
-}
+pub type OctreeHandle = crate::query::Handle<AnyLooseTree>;
 
-impl OctreeHandle {
-    /// The handle packed into 64 bits (to store it in a component or a slot map).
-    pub fn to_bits(self) -> u64 {
-        (u64::from(self.generation) << 32) | u64::from(self.slot)
-    }
-
-    /// The handle packed by [`OctreeHandle::to_bits`].
-    pub fn from_bits(bits: u64) -> Self {
-        Self {
-            slot: bits as u32,
-            generation: (bits >> 32) as u32,
-        }
-    }
-}
+/// The structure marker of [`OctreeHandle`]: octrees and quadtrees share their code and one
+/// handle type. Never constructed.
+#[derive(Debug)]
+pub enum AnyLooseTree {}
 
 /// Where a live entry is: its octant and its position in that octant's arrays.
 #[derive(Clone, Copy, Debug)]
@@ -49,8 +36,8 @@ impl Slots {
     /// The slot of a live handle.
     #[inline]
     pub(super) fn get(&self, handle: OctreeHandle) -> Option<Slot> {
-        let slot = *self.slots.get(handle.slot as usize)?;
-        (slot.generation == handle.generation && slot.octant != NONE).then_some(slot)
+        let slot = *self.slots.get(handle.index() as usize)?;
+        (slot.generation == handle.generation() && slot.octant != NONE).then_some(slot)
     }
 
     /// Whether [`Self::allocate`] can succeed, checked before an insert changes anything.
@@ -75,10 +62,7 @@ impl Slots {
         let s = &mut self.slots[slot as usize];
         s.octant = octant;
         s.position = position;
-        OctreeHandle {
-            slot,
-            generation: s.generation,
-        }
+        OctreeHandle::new(slot, s.generation)
     }
 
     /// Frees a slot; its handles become stale.

@@ -19,6 +19,6 @@ mod tree_view;
 mod validate;
 
 pub use config::{OctreeConfig, OctreeConfigError};
-pub use handle::OctreeHandle;
+pub use handle::{AnyLooseTree, OctreeHandle};
 pub use tree::{LooseOctree, LooseTree, Quadtree};
 pub use validate::OctreeValidationError;

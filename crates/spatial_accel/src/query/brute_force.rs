@@ -11,11 +11,7 @@ use glam::Vec3A;
 use std::time::Duration;
 
 /// A handle to one entry of a [`BruteForceIndex`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct FlatHandle {
-    slot: u32,
-    generation: u32,
-}
+pub type FlatHandle = super::Handle<BruteForceIndex>;
 
 /// Where a slot's entry sits in the dense arrays, and the slot's generation.
 #[derive(Clone, Copy, Debug)]
@@ -85,8 +81,8 @@ impl BruteForceIndex {
     }
 
     fn position(&self, handle: FlatHandle) -> Option<usize> {
-        let slot = self.slots.get(handle.slot as usize)?;
-        (slot.generation == handle.generation && slot.position != FREE)
+        let slot = self.slots.get(handle.index() as usize)?;
+        (slot.generation == handle.generation() && slot.position != FREE)
             .then_some(slot.position as usize)
     }
 
@@ -117,10 +113,7 @@ impl DynamicIndex for BruteForceIndex {
         self.ids.push(id);
         self.boxes.push(bounds);
         self.slot_of.push(slot);
-        Ok(FlatHandle {
-            slot,
-            generation: self.slots[slot as usize].generation,
-        })
+        Ok(FlatHandle::new(slot, self.slots[slot as usize].generation))
     }
 
     fn update(&mut self, handle: FlatHandle, bounds: Aabb) -> Result<bool, IndexError> {
@@ -140,10 +133,10 @@ impl DynamicIndex for BruteForceIndex {
         if let Some(&moved) = self.slot_of.get(position) {
             self.slots[moved as usize].position = position as u32;
         }
-        let slot = &mut self.slots[handle.slot as usize];
+        let slot = &mut self.slots[handle.index() as usize];
         slot.position = FREE;
         slot.generation = slot.generation.wrapping_add(1);
-        self.free_slots.push(handle.slot);
+        self.free_slots.push(handle.index());
         Ok(id)
     }
 
