@@ -20,6 +20,8 @@
 //!   test).
 //! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
 //!   size gives, O(depth) edits, a move inside its loose cell one box write).
+//! - [`prefetch`]: cache prefetch hints for reads at scattered addresses known ahead (the
+//!   next nodes of a tree walk, the next items' slots).
 //! - [`preview`]: a progressive CPU ray-traced preview (shaded, ambient occlusion, path
 //!   traced, and views of normals, depth, ids and traversal cost) over any scene.
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
@@ -37,7 +39,7 @@ pub mod grid;
 pub mod kdtree;
 pub mod mesh;
 pub mod octree;
-mod prefetch;
+pub mod prefetch;
 pub mod preview;
 pub mod query;
 

@@ -369,7 +369,7 @@ impl DynamicBvh {
         let i = handle.index();
         node::prefetch_index(&self.arena.nodes, i);
         if let Some(tight) = self.tight.get(i as usize) {
-            crate::prefetch::prefetch_value(tight);
+            crate::prefetch::prefetch_all(tight);
         }
     }
 

@@ -87,7 +87,7 @@ impl<const AXES: usize> LooseTree<AXES> {
             return;
         };
         if let Some(octant) = self.arena.octants.get(slot.octant as usize) {
-            crate::prefetch::prefetch_value(octant);
+            crate::prefetch::prefetch_all(octant);
         }
     }
 

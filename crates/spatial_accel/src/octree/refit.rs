@@ -54,7 +54,7 @@ impl<const AXES: usize> LooseTree<AXES> {
                 if let Some(&ahead) = bucket.get(i + REFIT_LOOKAHEAD)
                     && let Some(octant) = self.arena.octants.get(ahead as usize)
                 {
-                    crate::prefetch::prefetch_value(octant);
+                    crate::prefetch::prefetch_all(octant);
                 }
                 let octant = self.arena.get(o);
                 // Listed twice (released and made again, or moved to another level in

@@ -182,7 +182,7 @@ impl KeyedList {
         match self.position_by_key.get(key as usize) {
             Some(&p) if p != ABSENT => {
                 if let Some(entry) = self.entries.get(p as usize) {
-                    crate::prefetch::prefetch_value(entry);
+                    crate::prefetch::prefetch_all(entry);
                 }
                 true
             }

@@ -269,7 +269,7 @@ impl<'a> CurveBoxes<'a> {
     #[inline(always)]
     pub fn prefetch(&self, slot: u32) {
         if let Some(&id) = self.order.get(slot as usize) {
-            crate::prefetch::prefetch_value(&self.bounds[id as usize]);
+            crate::prefetch::prefetch_all(&self.bounds[id as usize]);
         }
     }
 }
