@@ -10,7 +10,8 @@
 //! - [`bsp`]: the polygon-aligned BSP tree over one mesh's triangles (painter's orders from
 //!   any eye point, robust cuts that share their points, exact ray queries).
 //! - [`bvh`]: the static BVH with every textbook build choice (midpoint, median, binned and
-//!   sweep SAH top-down, PLOC bottom-up; leaf size, depth and cost stopping rules).
+//!   sweep SAH top-down, LBVH, PLOC bottom-up; leaf size, depth and cost stopping rules), and
+//!   its 4-, 8- and 16-wide SIMD forms.
 //! - [`dynamic`]: the dynamic BVH (insert, remove and update by handle, batched refit, SAH
 //!   insertion with rotations, incremental optimisation, rebuilds) and the static/dynamic pair.
 //! - [`grid`]: the uniform grid over moving boxes (a hashed sparse grid, cell size from the
@@ -18,6 +19,9 @@
 //! - [`kdtree`]: the SAH kd-tree over one mesh's triangles (Wald and Havran's O(N log N) event
 //!   sweep, perfect splits, the empty-space bonus; rays front to back with the watertight
 //!   test).
+//! - [`mesh`]: the 16-wide BVH over one mesh's triangles (pre-split or spatial-split builds,
+//!   4-wide triangle packets, refit to new poses) and the two-level scene of mesh instances,
+//!   updated in place as they move.
 //! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
 //!   size gives, O(depth) edits, a move inside its loose cell one box write).
 //! - [`prefetch`]: cache prefetch hints for reads at scattered addresses known ahead (the
@@ -25,7 +29,9 @@
 //! - [`preview`]: a progressive CPU ray-traced preview (shaded, ambient occlusion, path
 //!   traced, and views of normals, depth, ids and traversal cost) over any scene.
 //! - [`query`]: the [`SpatialQuery`] interface every structure answers (closest, any and all
-//!   ray hits; box, sphere and point overlap; frustum; k nearest).
+//!   ray hits; box, sphere and point overlap; frustum; k nearest), the
+//!   [`DynamicIndex`](query::DynamicIndex) interface of the indexes over moving boxes and the
+//!   generational [`Handle`](query::Handle) they name entries by.
 //!
 //! Every test is NaN-safe: a NaN ray is a miss, a NaN box reports itself invalid, and nothing
 //! panics on non-finite input.

@@ -1,14 +1,15 @@
 //! The static BVH: a flat array of 32-byte binary nodes, built top-down or bottom-up.
 //!
-//! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, PLOC) and stopping
-//!   rules.
+//! - [`config`]: split strategies (midpoint, median, binned and sweep SAH, LBVH, PLOC) and
+//!   stopping rules.
 //! - `build/`: the builders, one file per strategy: the top-down driver and its splits, the
 //!   linear BVH (Morton-sorted radix tree, the fastest build), and the bottom-up PLOC builder
 //!   (with optional reinsertion), all sharing one output format and the same stopping rules.
 //! - [`stats`]: SAH cost, depth and leaf statistics of a built tree.
 //! - [`validate`]: the invariant checker every test runs.
 //! - [`SphereBvh`]: the same topology bounded by spheres instead of boxes.
-//! - [`wide`]: the tree collapsed to 4- or 8-wide nodes for SIMD traversal.
+//! - [`wide`]: the tree collapsed to 4-, 8- or 16-wide nodes for SIMD traversal, with exact or
+//!   quantised child boxes, refit along the paths of moved primitives.
 //!
 //! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
 //! tree ([`crate::query::walks`]).

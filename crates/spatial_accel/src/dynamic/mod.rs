@@ -1,7 +1,8 @@
 //! The dynamic BVH: a binary tree of moving boxes, edited in place in O(log n).
 //!
 //! Game entities move every frame. Rebuilding a tree every frame wastes the frame; refitting
-//! only lets it rot (svenstaro/bvh measured rays 8.8x slower after 10% of the shapes moved).
+//! only lets it rot (svenstaro/bvh reports its rays many times slower once a tenth of the
+//! shapes moved).
 //! [`DynamicBvh`] combines the known remedies so that callers tune nothing:
 //!
 //! - **Fat leaves** (Box2D): each leaf stores its box grown by a margin, so motion that stays
@@ -24,7 +25,9 @@
 //! Queries go through the same traversal code as the static [`crate::Bvh`]
 //! ([`crate::query::walks`]): [`DynamicBvh`] implements [`BoundingTree`] and
 //! [`SpatialQuery`](crate::SpatialQuery). A static tree and a dynamic one can be queried as one
-//! with [`StaticDynamicPair`].
+//! with [`StaticDynamicPair`] (which also keeps a 16-wide ray snapshot of the dynamic tree),
+//! a static tree and any [`DynamicIndex`](crate::query::DynamicIndex) with [`LayeredIndex`];
+//! [`PreparedStatic`] makes the static tree's derived tables off the frame that swaps it in.
 //!
 //! ```
 //! use spatial_accel::{Aabb, Ray, SpatialQuery};
@@ -447,7 +450,7 @@ impl DynamicBvh {
     /// kind (leaf or internal) must be set before its box.
     ///
     /// The areas are f64 ([`Aabb::half_area_f64`]): an f32 area of a finite box near the
-    /// float range's end is infinite, and once it left the sum again the sum was NaN. Such a
+    /// float range's end is infinite, and once it leaves the sum again the sum is NaN. Such a
     /// box still dwarfs the rest, so that its removal leaves a sum of rounding errors: when a
     /// sum falls below [`AREA_CANCELLATION`] of its peak since the last recount, it is
     /// recounted (O(n), once per such collapse, not per edit).

@@ -1,6 +1,7 @@
 //! Triangle meshes (the bottom level) and scenes of mesh instances (the top level).
 //!
-//! - [`MeshBvh`]: a 16-wide BVH over one mesh's indexed triangles, with the watertight test.
+//! - [`MeshBvh`]: a 16-wide BVH over one mesh's indexed triangles, with the watertight test,
+//!   built over pre-split triangles or with spatial splits ([`SpatialSplits`]).
 //! - [`MeshHit`]: where a ray met a mesh, with interpolation of vertex attributes.
 //! - [`TraversalCost`]: the work of one ray's walk, counted by a separate walk
 //!   ([`MeshBvh::cast_ray_counted`], [`InstancedScene::cast_ray_counted`]) for heat maps.

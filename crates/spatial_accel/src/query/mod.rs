@@ -1,7 +1,7 @@
 //! One query interface for every spatial structure in the crate.
 //!
-//! [`SpatialQuery`] is what picking, culling and the preview call; the BVHs, the dynamic BVH and
-//! later the octree and grid all implement it. Trees only *find candidates*: each query calls
+//! [`SpatialQuery`] is what picking, culling and the preview call; the BVHs, the dynamic BVH,
+//! the loose octree and quadtree, the uniform grid and the flat lists all implement it. Trees only *find candidates*: each query calls
 //! back per primitive, and the caller runs the exact test (a triangle, an entity filter), so one
 //! tree serves boxes, meshes and entities alike.
 //!
@@ -13,7 +13,7 @@
 //! - [`DynamicIndex`]: an index over moving boxes (insert, update and remove by handle,
 //!   per-frame upkeep with a budget, stats, its nodes by depth for overlays), and
 //!   [`AnyIndex`], the one chosen at run time; [`IndexAdvisor`] chooses it from the
-//!   observed workload.
+//!   observed workload. Every index names its entries by a generational [`Handle`].
 //! - [`NodeView`] and [`visit_tree_nodes`]: the nodes of any [`BoundingTree`] level by level,
 //!   as [`DynamicIndex::visit_nodes`] gives those of a dynamic index.
 //! - [`TriangleQuery`]: exact ray hits and overlap on one mesh's triangles.

@@ -3,12 +3,12 @@
 use super::NodeVolume;
 
 /// A hierarchy of bounding volumes over primitive ids: a binary BVH, a wide BVH, a sphere
-/// tree, and the coming octree.
+/// tree, the dynamic BVH, a loose octree or quadtree.
 ///
 /// Every query of [`SpatialQuery`](super::SpatialQuery) is written once over this view (in
 /// [`crate::query::walks`] and [`crate::query::views`]) and behaves the same on every tree
 /// shape; a structure keeps a walk of its own only where one measures faster (the wide
-/// trees' SIMD ray walk).
+/// trees' SIMD ray walk: BENCHMARKS.md, Shared walks).
 ///
 /// What an implementation promises:
 /// - a node's volume contains the volumes of its children and the bounds of the primitives
