@@ -24,8 +24,8 @@ pub enum SplitStrategy {
     /// Not a split: LBVH, the linear BVH (Lauterbach et al. 2009; Karras 2012's binary radix
     /// tree). Primitives are sorted along a Morton curve and each node splits its run where
     /// the highest differing bit of their codes changes: a sort and two linear passes, the
-    /// fastest build here (BENCHMARKS.md, Static BVH builds), for a tree
-    /// 8-22% costlier than a binned SAH one. `max_leaf_size` and `max_depth` apply;
+    /// fastest build here, for a tree of a higher SAH cost than a binned SAH one (BENCHMARKS.md,
+    /// Static BVH builds). `max_leaf_size` and `max_depth` apply;
     /// `sah_termination` does not (no split is costed).
     Lbvh,
     /// Not a split: PLOC, Parallel Locally-Ordered Clustering (Meister & Bittner 2018), a
@@ -48,9 +48,9 @@ pub enum SplitStrategy {
         /// Reinsertion after clustering (Bittner et al. 2013, as parallelised by Meister &
         /// Bittner 2018): the nodes with the largest boxes, this many per thousand nodes, are
         /// moved to where they cost least. 0 skips it; 10 to 20 buys most of its gain. It pays
-        /// where primitive sizes vary (large triangles among small ones: 14% off the SAH cost
-        /// of the million-triangle benchmark scene) and finds nothing to move among boxes of
-        /// similar size.
+        /// where primitive sizes vary (large triangles among small ones, as in the
+        /// million-triangle benchmark scene: BENCHMARKS.md, Static BVH builds) and finds nothing
+        /// to move among boxes of similar size.
         reinsert_per_mille: u32,
     },
 }
@@ -64,7 +64,8 @@ impl SplitStrategy {
 
     /// PLOC tuned for tree quality: radius 1 and reinsertion of 1.2% of the nodes. On the
     /// million-triangle benchmark scene its SAH cost is below obvhs' `medium_build` preset's
-    /// (427.9 against 431.5; 1.5% reaches 422.4 in more time).
+    /// (BENCHMARKS.md, Static BVH builds); reinserting more nodes lowers it a little further,
+    /// for a longer build.
     pub const PLOC: Self = Self::Ploc {
         search_radius: 1,
         reinsert_per_mille: 12,

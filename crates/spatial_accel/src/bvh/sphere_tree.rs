@@ -10,8 +10,8 @@ use glam::Vec3A;
 /// It shares the topology of a [`Bvh`] (so the split choices are the box tree's) and replaces
 /// each node box by a sphere: the smaller of the sphere around the node's box and the merge of
 /// its children's spheres. Spheres are rotation-invariant and cheap to test against a frustum
-/// (one dot product per plane), but enclose boxes loosely; `BENCHMARKS.md` compares the two on
-/// rays and culling.
+/// (one dot product per plane), but enclose boxes loosely: rays and views cost more than in the
+/// box tree (BENCHMARKS.md, Shared walks).
 ///
 /// A primitive whose box has an infinite bound (or one so large that its circumscribed
 /// radius overflows) is held, as the box tree holds it, under spheres of infinite radius:

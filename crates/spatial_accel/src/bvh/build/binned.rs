@@ -142,9 +142,8 @@ impl<const SUMS: bool> BinMap<SUMS> {
 /// Why: the top levels of a large build stream every primitive through the binning once per
 /// level, only to choose one of `3 (bins - 1)` planes. Binning already evaluates the cost on
 /// a coarse set of planes; the counts and boxes of a thousand stratified samples estimate it
-/// nearly as well on a large node: builds of a million triangles and of 100k entity boxes
-/// got faster for an SAH cost a few tenths of a percent higher (docs/experiments.md, Static
-/// BVH builds).
+/// nearly as well on a large node: builds of triangles and of entity boxes alike get faster,
+/// for an SAH cost barely higher (BENCHMARKS.md, Static BVH builds).
 const SAMPLE_FROM: usize = 8192;
 
 /// Primitives binned in a sampled node.
@@ -173,7 +172,7 @@ fn split_with<const B: usize, const SUMS: bool>(
         1
     };
     // Where the CPU has AVX2, both passes in wide registers (see `binned_avx2`): the same
-    // decision, a faster build (docs/experiments.md, Static BVH builds).
+    // decision, a faster build (BENCHMARKS.md, Static BVH builds).
     #[cfg(target_arch = "x86_64")]
     let found = if SUMS && stride == 1 && (B == 8 || B == 16) && binned_avx2::available() {
         wide_plane::<B, SUMS>(prims, &map)
@@ -366,8 +365,8 @@ fn split_at_plane<const SUMS: bool>(
 ///
 /// Why not the exact bounds: the partition tracked them, four vector selects and four min/max
 /// per primitive and level. These bounds are never tighter, so the next level's bins are a
-/// little wider: SAH cost within half a percent either way on the benchmark scenes, for a
-/// faster build (docs/experiments.md, Static BVH builds).
+/// little wider: about the same SAH cost on the benchmark scenes, for a faster build
+/// (BENCHMARKS.md, Static BVH builds).
 /// They are conservative, so coincident centroids still find no plane that separates them
 /// (their bins cannot), and the split by count still applies.
 #[inline(always)]
@@ -496,8 +495,8 @@ mod tests {
 
     /// A node that may become a leaf (large leaves allowed) becomes one exactly when the SAH
     /// says so for the cheapest plane of the bins: the split's cost is over the node's
-    /// primitives, whichever passes found it. (It failed when the wide passes' cost was
-    /// scaled as if a sample of `bins` primitives had been binned.)
+    /// primitives, whichever passes found it. (Scaling the wide passes' cost as if a sample of
+    /// `bins` primitives had been binned would break this.)
     #[test]
     fn binned_leaf_verdict_follows_the_sah() {
         let mut next = crate::test_floats(0x0d6e_8fd1_4c3a_2b97);

@@ -2,8 +2,8 @@
 //! the sweep over the bins with every plane of an axis costed at once.
 //!
 //! Why: nodes of 9 to 64 primitives are most of a binned build's splits, and in them the
-//! fixed costs ruled: the sweep walked `2 (bins - 1)` planes per axis one box at a time (a
-//! union, an area and a select each), more work than binning the primitives. Here a bin is
+//! fixed costs rule: the portable sweep walks `2 (bins - 1)` planes per axis one box at a time
+//! (a union, an area and a select each), more work than binning the primitives. Here a bin is
 //! one 256-bit row (its lower corner, then its upper corner negated, so that one `min` grows
 //! both); an axis's prefix and suffix boxes are built a row at a time and transposed into
 //! planes of eight bins, whose areas and costs are then computed eight planes at a time.
@@ -52,7 +52,7 @@ pub(super) fn split_plane<const B: usize>(
 }
 
 /// Both passes in one function, so that the bins stay in its frame (returned from a function
-/// of their own, they were copied).
+/// of their own, they would be copied).
 #[target_feature(enable = "avx2")]
 fn bin_and_sweep<const B: usize>(
     prims: &[BuildPrim],

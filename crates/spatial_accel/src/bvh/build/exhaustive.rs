@@ -1,12 +1,11 @@
 //! The exact SAH split of a node of a few primitives: every way to divide them in two, costed.
 //!
-//! Why: a binned build spends a fifth of its calls on nodes of three or four primitives, and
+//! Why: a binned build spends many of its calls on nodes of three or four primitives, and
 //! for those the binning's fixed cost (clearing three rows of bins, sweeping them twice)
-//! outweighs the primitives. Enumerating the 3 or 7 partitions costs less (measured per node
-//! in a million-triangle build: docs/experiments.md, Static BVH builds), and finds the
-//! optimal split rather than the best of the bins' planes. From five primitives on
-//! (15 partitions, the unions of 31 subsets) the bins were cheaper again; nodes of five to
-//! eight now take every plane instead where the CPU has AVX2 (`sorted`).
+//! outweighs the primitives. Enumerating the 3 or 7 partitions costs less per node, and finds
+//! the optimal split rather than the best of the bins' planes. From five primitives on
+//! (15 partitions, the unions of 31 subsets) the bins cost less again; nodes of five to
+//! eight take every plane instead where the CPU has AVX2 (`sorted`).
 
 use super::top_down::{BuildPrim, NodeBounds, SplitOutcome, leaf_is_cheaper};
 use crate::Aabb;

@@ -3,8 +3,8 @@
 //! their codes (Karras 2012): each node splits its run of codes where the highest bit that
 //! differs within the run changes. No box is read to choose a split, so the build is a sort
 //! plus two linear passes; the price is the tree's quality, since a split follows the grid,
-//! not the primitives' extents (SAH cost 8-22% above a binned SAH build on the benchmark
-//! scenes: 100k entity boxes, random boxes, a million triangles; BENCHMARKS.md).
+//! not the primitives' extents (a higher SAH cost than a binned SAH build on every benchmark
+//! scene: BENCHMARKS.md, Static BVH builds).
 //!
 //! What it is for: rebuilding a tree of many entities often, where build time matters more
 //! than the last percent of query speed (a level's static tree after an edit, a dynamic tree's

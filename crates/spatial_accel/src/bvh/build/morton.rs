@@ -20,7 +20,7 @@ const DIGIT_BITS: u32 = 11;
 
 /// Most bits per axis: 8,192 cells an axis, 39-bit codes, which sort in one top pass and three
 /// LSD passes. On both benchmark scenes (a million triangles, 100,000 entity boxes) PLOC's SAH
-/// cost is the same to 0.01% from 10 to 14 bits: finer codes only reorder nearly coincident
+/// cost stays the same from 10 to 14 bits: finer codes only reorder nearly coincident
 /// primitives, which the neighbour search does not notice.
 const MAX_AXIS_BITS: u32 = 13;
 
@@ -162,8 +162,8 @@ pub(super) fn sorted_keys(bounds: &[Aabb]) -> (KeyLayout, Vec<u64>) {
 /// One most-significant-digit pass of [`TOP_BITS`] splits the keys into buckets, then each
 /// bucket is sorted least-significant digit first, at most [`DIGIT_BITS`] a pass. A plain LSD
 /// sort of a million keys scatters every pass to 2,048 places across 8 MB: on 4 KB pages that
-/// is a TLB miss per key, and on a virtual machine (two-level page walks) it ran at half the
-/// speed of this. The top pass scatters to only 64 places; each bucket (a sixty-fourth of the
+/// is a TLB miss per key, which on a virtual machine (two-level page walks) dominates the
+/// sort. The top pass scatters to only 64 places; each bucket (a sixty-fourth of the
 /// keys) is then sorted inside L2. An LSD pass whose digit is the same for every key of its
 /// bucket is skipped.
 pub(super) fn radix_sort(keys: &mut Vec<u64>, bits: Range<u32>) {

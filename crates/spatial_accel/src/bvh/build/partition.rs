@@ -17,9 +17,9 @@ const PARTITION_BLOCK: usize = 64;
 /// What is left when fewer than two blocks remain (every node of fewer than 128 primitives,
 /// most of a tree's nodes) goes through Lomuto's scheme without a branch: every element is
 /// swapped with the next left slot, and the slot advances when the element belongs left. Why:
-/// Hoare's loop in this place branched on every element's side, and those mispredictions cost
-/// about a fifth of a binned SAH build, over a million triangles and over 100k boxes alike
-/// (docs/experiments.md, Static BVH builds).
+/// Hoare's loop branches on every element's side here too, and those mispredictions are a
+/// large share of a binned SAH build, over triangles and entity boxes alike (BENCHMARKS.md,
+/// Static BVH builds).
 pub(super) fn partition(
     prims: &mut [BuildPrim],
     mut goes_left: impl FnMut(&BuildPrim) -> bool,

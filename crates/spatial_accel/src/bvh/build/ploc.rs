@@ -37,8 +37,8 @@ const STALL_FRACTION: usize = 32;
 /// The last this many clusters search at least [`TOP_RADIUS`]. At the top of the tree a
 /// handful of large clusters is left, and neighbours on the curve need not be near in space
 /// (the curve jumps between distant regions): at radius 1, scenes of a few dense clusters far
-/// apart paired distant clusters early and cost 1.3 times the binned SAH tree, against 1.03
-/// with this. Elsewhere it changes nothing measurable.
+/// apart pair distant clusters early, for a tree far costlier than the binned SAH one, which
+/// the wider search keeps close to it. Elsewhere it changes nothing measurable.
 const TOP_CLUSTERS: usize = 32;
 
 /// See [`TOP_CLUSTERS`].
@@ -48,8 +48,8 @@ const TOP_RADIUS: u32 = 4;
 pub(super) const GATHER_AHEAD: u32 = 32;
 
 /// Reinsertion rounds (see [`Tree::optimize`]). On the million-triangle benchmark scene the
-/// first round moves 9,599 nodes and the second 661; four rounds take the SAH cost from 427.9
-/// only to 427.5.
+/// second round moves a small fraction of the nodes the first moves, and further rounds lower
+/// the SAH cost by next to nothing.
 const REINSERT_ROUNDS: u32 = 2;
 
 /// A live cluster: its box, its tree node and how many primitives it holds. 32 bytes, so a
@@ -233,8 +233,8 @@ impl Clusters {
 /// Clustering works in place on one gathered copy, which merges overwrite; what needs a
 /// primitive's box afterwards (the layout's single-primitive leaves, the collapse and
 /// reinsertion) reads it here. A second, kept copy would be 32 bytes a primitive of fresh
-/// memory every build, and fresh memory is dear: each 4 KB page is a fault
-/// (docs/experiments.md, Static BVH builds).
+/// memory every build, and fresh memory is dear: each 4 KB page is a fault (BENCHMARKS.md,
+/// Static BVH builds).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct CurveBoxes<'a> {
     bounds: &'a [Aabb],
@@ -289,8 +289,8 @@ fn cluster(
         return merges;
     }
     // The boxes are read in curve order, each at a random place: asking for the one
-    // `GATHER_AHEAD` places on overlaps the cache misses (the gather took about a third of
-    // its time after: docs/experiments.md, Static BVH builds).
+    // `GATHER_AHEAD` places on overlaps the cache misses, which otherwise bound the gather
+    // (BENCHMARKS.md, Static BVH builds).
     let cl: Vec<Cluster> = (0..n as u32)
         .map(|slot| {
             prims.prefetch(slot + GATHER_AHEAD);

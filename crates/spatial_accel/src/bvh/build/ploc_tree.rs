@@ -99,9 +99,9 @@ pub(super) type SubtreeCost = (f32, u32);
 /// Sets the collapse flags again where reinsertion changed the tree. Clustering decided every
 /// merge's flag and recorded its `subtrees` cost; a merge whose subtree reinsertion left alone
 /// (not `moved`) keeps both, so only the moved merges, the paths from each move to the root,
-/// are visited, children before parents. Deciding them over the whole tree again took a quarter
-/// of reinsertion's fixed cost (a post-order and a pass over two million merges on a million
-/// triangles) for the few thousand paths a batch changes.
+/// are visited, children before parents. Deciding them over the whole tree again would cost a
+/// post-order and a pass over every merge (two million on a million triangles), a large part
+/// of reinsertion's fixed cost, for the few paths a batch changes.
 pub(super) fn collapse_moved(
     prims: CurveBoxes<'_>,
     merges: &mut [Merge],
@@ -134,8 +134,8 @@ pub(super) fn collapse_moved(
 }
 
 /// [`layout_tree`], kept within `config.max_depth`. A bottom-up tree has no depth bound of its
-/// own, yet it is rarely deeper than the limit (36 levels for a million triangles after
-/// reinsertion, against 64), so the tree is laid out as it is first, and only a layout that
+/// own, yet it is rarely deeper than the limit (a million triangles after reinsertion stay well
+/// within the default of 64 levels), so the tree is laid out as it is first, and only a layout that
 /// went too deep is redone with the subtree heights that tell where to rebuild.
 pub(super) fn layout_within_depth(
     prims: CurveBoxes<'_>,

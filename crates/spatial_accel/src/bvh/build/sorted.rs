@@ -2,17 +2,17 @@
 //! two consecutive centroids, costed from sorted prefix and suffix boxes (sweep SAH,
 //! MacDonald & Booth 1990), all eight lanes at once.
 //!
-//! Why: nodes of 5 to 8 primitives are a quarter of a binned build's splits, and their bins
-//! cost more than their primitives: clearing three rows of bins, sweeping 3 x (n - 1) planes
-//! one box at a time. With AVX2, a node's eight centroids sort in six compare-exchange steps
-//! of one register, and every plane's left and right box comes out of three shift-and-`min`
-//! steps: cheaper per split, and a whole build faster (docs/experiments.md, Static BVH
-//! builds). The split found is also the best plane of all, where the bins see
-//! only theirs (SAH cost 500.47 -> 499.26 on the bench's million triangles).
+//! Why: nodes of 5 to 8 primitives are a large share of a binned build's splits, and their
+//! bins cost more than their primitives: clearing three rows of bins, sweeping 3 x (n - 1)
+//! planes one box at a time. With AVX2, a node's eight centroids sort in six compare-exchange
+//! steps of one register, and every plane's left and right box comes out of three
+//! shift-and-`min` steps: cheaper per split, and a whole build faster (BENCHMARKS.md, Static
+//! BVH builds). The split found is also the best plane of all, where the bins see only
+//! theirs, so the tree's SAH cost comes out a little lower too.
 //!
 //! Only where the CPU has AVX2 ([`available`]); elsewhere nodes of 5 to 8 primitives keep
 //! their bins. The portable version of the same sweep (a sort, then a plane at a time)
-//! measured slower for a whole build than the bins, so it is only the definition the
+//! makes a whole build slower than the bins do, so it is only the definition the
 //! AVX2 code is tested against (`sweep_axis_portable`). Trees built on a CPU without AVX2 can
 //! therefore differ from those built with it; both are valid, and the queries' results are
 //! the same.

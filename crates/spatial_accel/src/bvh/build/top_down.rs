@@ -13,8 +13,8 @@ use glam::{Vec3A, Vec4};
 /// 32 bytes, the id in the fourth lane of the box's lower corner (stored as
 /// [`ID_LANE_FLIP`]` ^ id`, see there). Why: the top levels of a
 /// large build stream every primitive through memory once per pass (binning, partition), and
-/// at a million triangles they are bound by memory bandwidth; the 64-byte record this replaced
-/// (box, stored centroid, id) moved twice the bytes. The centroid is recomputed where it is
+/// at a million triangles they are bound by memory bandwidth; a 64-byte record (box, stored
+/// centroid, id) would move twice the bytes. The centroid is recomputed where it is
 /// needed: four vector operations against a cache line.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
@@ -27,9 +27,8 @@ pub(super) struct BuildPrim {
 
 /// Flipped into an id before its bits go into a float lane. Why: the lane rides along through
 /// the vector arithmetic of centroids and unions, and an id below 2^23 read as a float is a
-/// denormal, which makes every multiply on it take a microcode assist: the first version of
-/// this record built several times slower (docs/experiments.md, Static BVH builds). With bit
-/// 30 flipped the lane's exponent is nonzero for every id below 2^30.
+/// denormal, which makes every multiply on it take a microcode assist, enough to dominate a
+/// build's time. With bit 30 flipped the lane's exponent is nonzero for every id below 2^30.
 const ID_LANE_FLIP: u32 = 1 << 30;
 
 impl BuildPrim {
@@ -132,9 +131,7 @@ pub(in crate::bvh) fn build_nodes(
 /// The build records of the valid boxes of `bounds`, and their bounds.
 ///
 /// Why the bounds here: as a pass of their own, the root's box and centroid bounds read every
-/// record once more; folded into the pass that writes the records, they cost next to nothing
-/// (a small gain, at the edge of the benchmark machine's noise: docs/experiments.md, Static
-/// BVH builds).
+/// record once more; folded into the pass that writes the records, they cost next to nothing.
 pub(super) fn collect_prims(bounds: &[Aabb]) -> (Vec<BuildPrim>, NodeBounds) {
     assert!(
         bounds.len() < u32::MAX as usize,
@@ -242,14 +239,13 @@ pub(super) fn build_subtree(
 /// Why not always the bound: `2n - 1` nodes is twice the size of every other buffer of a
 /// build, and glibc serves a block that large by mapping fresh pages, while blocks no larger
 /// than the build's other buffers come from its heap once those are freed. In a loop of
-/// 1M-triangle PLOC builds, each dropped before the next (as criterion, or a game that
-/// rebuilds, does), reserving `n` cut a build's page faults to about a quarter and its time
-/// by about a third, page faults being dear on a VM. It also matters across builders: with
-/// the top-down builders alone still reserving `2n - 1`, PLOC builds later in the same
-/// process ran slower again. Why not always `n`: a tree that needs about `2n` grows it by a
-/// copy into a block mapped afresh, which made the plugin's entity tree (one or two entities
-/// a leaf) build slower (docs/experiments.md, Static BVH builds). A first build in a fresh
-/// process gains nothing either way.
+/// builds, each dropped before the next (as criterion, or a game that rebuilds, does),
+/// reserving `n` spares most of a build's page faults, which are dear on a VM. It also matters
+/// across builders: one builder reserving `2n - 1` slows the builds of the others later in the
+/// same process. Why not always `n`: a tree that needs about `2n` grows it by a copy into a
+/// block mapped afresh, which slows the build of the plugin's entity tree (one or two entities
+/// a leaf) (BENCHMARKS.md, Static BVH builds). A first build in a fresh process gains nothing
+/// either way.
 pub(super) fn first_node_reservation(n: usize, config: &BuildConfig) -> usize {
     let small_leaves = config.max_leaf_size <= 1 || config.sah.intersection > config.sah.traversal;
     if small_leaves {
@@ -275,9 +271,9 @@ pub(super) fn build_subtree_within(
     let mut work: Vec<Pending> = Vec::new();
     let mut loose = Vec::new();
     // The left child is split next, straight from `current`; only the right one waits on the
-    // stack. Why: popping the entry just pushed read it back from memory through stores of
-    // other sizes and offsets, which the CPU cannot forward to the loads; the stalls were a
-    // third of the driver's time in a million-triangle build.
+    // stack. Why: popping the entry just pushed would read it back from memory through stores
+    // of other sizes and offsets, which the CPU cannot forward to the loads; those stalls would
+    // take a large share of the driver's time.
     let mut current = Pending {
         bounds,
         node: 0,

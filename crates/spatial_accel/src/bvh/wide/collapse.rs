@@ -11,15 +11,13 @@ use std::borrow::Cow;
 /// Collapses along the least-cost plan of [`plan_slots`]: which binary nodes become wide
 /// nodes, chosen so that the wide nodes' total surface area (the nodes a random ray is
 /// expected to visit) is least. The greedy top-down collapse (open the interior child of
-/// largest area until the node is full: Wald et al. 2008, Embree's BVH4/8 builders) left the
+/// largest area until the node is full: Wald et al. 2008, Embree's BVH4/8 builders) leaves the
 /// bottom level, which holds most nodes, half empty; see `plan.rs`.
 ///
 /// The plan records only which binary node each slot takes (a few bytes a slot);
-/// the wide nodes are written once, by the bottom-up pass. Why: an earlier version built
-/// every node twice, as a float node and then in the layout, in arrays grown by doubling, and
-/// at a million entities perf put about a quarter of its time on page faults and copies of
-/// those arrays; writing each node once nearly halved it (docs/experiments.md, Static BVH
-/// builds).
+/// the wide nodes are written once, by the bottom-up pass. Why: building every node twice, as
+/// a float node and then in the layout, in arrays grown by doubling, spends much of a large
+/// collapse on page faults and copies of those arrays (BENCHMARKS.md, Static BVH builds).
 pub(super) fn collapse<const N: usize, L: WideLayout<N>>(bvh: &Bvh) -> WideBvh<N, L> {
     assert!(N >= 2, "a wide node needs at least two children");
     let bvh = split_oversized_leaves(bvh, L::MAX_LEAF_PRIMITIVES);

@@ -4,8 +4,8 @@
 //! tests all its children's boxes in a handful of SIMD instructions from one or two cache
 //! lines (Wald et al. 2008, "Getting rid of packets"; Dammertz et al. 2008, "Shallow bounding
 //! volume hierarchies"). The collapse keeps the binary tree's SAH partition and only removes
-//! levels, so quality is unchanged while depth drops by 2x (4-wide), 3x (8-wide) or 4x
-//! (16-wide).
+//! levels, so quality is unchanged while depth drops to a half (4-wide), a third (8-wide) or a
+//! quarter (16-wide).
 
 mod collapse;
 mod layout;
@@ -53,8 +53,9 @@ pub struct WideBvh<const N: usize, L = WideNode<N>> {
     /// True when [`Self::primitive_indices`] is `0, 1, 2, ...` (a mesh BVH's packets are
     /// stored in leaf order): a ray walk then takes a leaf's primitive ids from its range and
     /// skips the array. Reading a leaf's ids from the array is one more dependent load between
-    /// the node's and the primitive's; skipping it made incoherent rays on the 1M-triangle
-    /// mesh faster, other kinds level (docs/experiments.md, Rays on meshes).
+    /// the node's and the primitive's; skipping it makes incoherent rays on the
+    /// million-triangle mesh faster and costs other rays nothing (BENCHMARKS.md, Rays on
+    /// meshes).
     pub(crate) ids_are_positions: bool,
 }
 
@@ -65,9 +66,9 @@ pub type Bvh8 = WideBvh<8>;
 /// The 16-wide layout (512-byte nodes): a tree a quarter shallower than the 8-wide one, for
 /// single rays through large trees whose nodes come from memory one level at a time. Where
 /// the CPU has AVX2 its node test runs 8 lanes at a time. The entity trees' ray copies and the
-/// mesh BVHs use it: rays at 10^5 entities ran faster than on `Bvh8` even with the 4-lane
-/// test, and diffuse and incoherent mesh rays faster still with the 8-lane one
-/// (docs/experiments.md, Picking and Rays on meshes).
+/// mesh BVHs use it: rays through entity trees are faster on it than on `Bvh8` even with the
+/// 4-lane test, and diffuse and incoherent mesh rays gain most from the 8-lane one
+/// (BENCHMARKS.md, Picking and Rays on meshes).
 pub type Bvh16 = WideBvh<16>;
 /// The 8-wide layout with quantized child boxes: 128-byte nodes (two cache lines) instead of
 /// 256, for trees traced by many incoherent rays (mesh BVHs), where node fetches from memory
@@ -186,8 +187,8 @@ impl<const N: usize> WideBvh<N> {
     /// Why: reaching a leaf's primitive through the primitive array is one more dependent
     /// load after the node's, and on trees whose leaves are mostly single primitives scattered
     /// over a large array (entity trees: 400 KB of ids at 10^5 entities) it misses the cache.
-    /// Rays on the picking bench's entity tree ran faster with the ids inlined
-    /// (docs/experiments.md, Picking). Everything else (the primitive array, each slot's
+    /// Rays through the picking benchmark's entity trees are faster with the ids inlined
+    /// (BENCHMARKS.md, Picking). Everything else (the primitive array, each slot's
     /// position in it, refits) is unchanged. Ids at or above 2^31 stay in the array.
     ///
     /// Call it again after rewriting [`Self::primitive_indices`]' ids in place (it also

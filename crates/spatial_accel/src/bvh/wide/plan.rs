@@ -4,9 +4,8 @@
 //! 2008) fills the top of the tree and starves its bottom: a binary tree of single-primitive
 //! leaves is about 17 levels deep at 10^5 primitives, 17 is not a multiple of 3, and the last
 //! wide level, which holds most of the nodes, gets two binary levels: four children in eight
-//! slots. On the picking bench's 10^5 entities the greedy plan made 33,715 nodes with 3.97
-//! children each, more than twice as many nodes as full ones need, so rays fetched about twice
-//! as many from memory as they had to.
+//! slots. The greedy plan then makes about twice as many nodes as full ones need, and rays
+//! fetch about twice as many from memory as they have to.
 //!
 //! Here the plan is the one of least SAH cost instead (the dynamic programme of Ylitie et al.
 //! 2017, "Efficient incoherent ray traversal on GPUs through compressed wide BVHs", section
@@ -157,8 +156,8 @@ impl Choice {
 /// A subtree's costs are `least[k - 1]`: the least total area of the wide nodes needed to
 /// cover it with at most `k` slots (0 for a leaf: one slot, no node). They are needed only
 /// until its parent's turn, so they live on a stack in a post-order walk, not in an array by
-/// node: at a million primitives such an array was 64 MB, and its page faults alone took
-/// longer than the greedy collapse.
+/// node: at a million primitives such an array would be 64 MB, whose page faults alone would
+/// cost more than the greedy collapse.
 ///
 /// A subtree with `s <= N` leaves costs nothing from `k = s` on, so the splits tried are capped
 /// by the children's leaf counts: most nodes of a tree sit near its leaves and have few, and
@@ -200,8 +199,8 @@ fn least_cost_choices<const N: usize>(binary: &[BvhNode]) -> Vec<Choice> {
                 // Tried most even first, and kept only if strictly cheaper: of the splits of
                 // least cost, the most even wins. Why: boxes of equal areas (a crowd of
                 // identical entities, zero-area points) tie everywhere, and taking the first
-                // tie gave the left child one slot at every step: wide nodes that each split
-                // off half of their primitives, a tree as deep as the binary one.
+                // tie would give the left child one slot at every step: wide nodes that each
+                // split off half of their primitives, a tree as deep as the binary one.
                 for &i in &EVEN_FIRST[k][..k - 1] {
                     let i = i as usize;
                     let c = if (lo..=hi).contains(&i) {
@@ -278,8 +277,8 @@ mod tests {
     use crate::{Aabb, SahCosts};
     use glam::Vec3A;
 
-    /// The collapse this module replaced (open the interior slot of largest area until the
-    /// node is full): a feasible plan, so the least-cost one must never cost more.
+    /// The greedy collapse (open the interior slot of largest area until the node is full):
+    /// a feasible plan, so the least-cost one must never cost more.
     fn plan_slots_greedy<const N: usize>(binary: &[BvhNode]) -> Vec<[Option<PlannedSlot>; N]> {
         let area = |s: usize| binary[s].aabb().half_area();
         plan_from(binary, |root, slots| {

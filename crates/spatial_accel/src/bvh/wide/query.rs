@@ -153,9 +153,9 @@ impl<const N: usize, L: WideLayout<N>> RayWalk for WideBvh<N, L> {
         // that does nothing), the picking casts' over entity trees among them. Their loop runs
         // a second time compiled with AVX2 where the CPU has it: the VEX encoding's
         // three-operand forms drop the register copies of the node test, and 16-wide nodes
-        // are tested 8 lanes at a time (`SlotRayTest::intersect_slots_wide`), where `_mm256`
-        // intrinsics had been slower; each a paired gain on picking rays at 10^5 entities
-        // (docs/experiments.md, Picking).
+        // are tested 8 lanes at a time (`SlotRayTest::intersect_slots_wide`; `_mm256`
+        // intrinsics, which a generic walk cannot inline, are slower). Each makes picking rays
+        // faster (BENCHMARKS.md, Picking).
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
             // SAFETY: the CPU has AVX2 and FMA.

@@ -15,9 +15,8 @@ use glam::Vec4;
 /// The choice is kept as plane indices, not signs. Node layouts store their six plane arrays
 /// in one order (the three minimum axes, then the three maximum ones), so the test loads the
 /// entry and exit planes straight from the node at those indices. Choosing between two loaded
-/// values by the sign instead made the compiler copy the node's planes to the stack at every
-/// visit; with indices, rays at 10^5 entities ran faster (paired; docs/experiments.md,
-/// Picking).
+/// values by the sign instead makes the compiler copy the node's planes to the stack at every
+/// visit, which slows picking rays (BENCHMARKS.md, Picking).
 pub struct RayLanes {
     pub(super) origin: [Vec4; 3],
     pub(super) inv_direction: [Vec4; 3],
@@ -48,10 +47,9 @@ const FUSED_OFFSET_SLACK: f32 = 4.0 * f32::EPSILON;
 pub trait SlotRayTest<const N: usize> {
     /// The hit mask (bit i = slot i); each slot's entry distance is written to `entry_t`.
     ///
-    /// An out parameter rather than a returned array: returned, the array was written four
-    /// lanes at a time and copied on in wider moves, whose loads then waited for the narrower
-    /// stores to retire (rays at 10^5 entities ran faster without the copy:
-    /// docs/experiments.md, Picking).
+    /// An out parameter rather than a returned array: returned, the array is written four
+    /// lanes at a time and copied on in wider moves, whose loads then wait for the narrower
+    /// stores to retire, a stall at every node visit.
     fn intersect_slots(&self, ray: &RayLanes, t_max: f32, entry_t: &mut [f32; N]) -> u32;
     /// [`Self::intersect_slots`] for a walk compiled with 8-lane vectors (the AVX2 copy of the
     /// walk); the same hits, or conservative ones where the fused test runs.
@@ -83,11 +81,10 @@ impl<const N: usize> SlotRayTest<N> for WideNode<N> {
     }
 
     /// 16-wide nodes take [`slab_test_flat`], which the compiler vectorises 8 lanes at a time
-    /// where the walk is compiled with AVX2 (rays at 10^5 entities ran faster), in its
-    /// fused form unless the ray is axis-parallel. Narrower nodes keep the 4-lane test: for
+    /// where the walk is compiled with AVX2 (faster picking rays: BENCHMARKS.md, Picking), in
+    /// its fused form unless the ray is axis-parallel. Narrower nodes keep the 4-lane test: for
     /// 8-wide mesh BVH nodes the flat test's mask building costs more than the wider lanes
-    /// save (mesh rays ran slower with it). See docs/experiments.md, Picking and Rays on
-    /// meshes.
+    /// save (BENCHMARKS.md, Rays on meshes).
     #[inline(always)]
     fn intersect_slots_wide(&self, ray: &RayLanes, t_max: f32, entry_t: &mut [f32; N]) -> u32 {
         if N >= 16 {
@@ -110,15 +107,15 @@ impl<const N: usize> SlotRayTest<N> for WideNode<N> {
 /// The widened slab test of [`slab_test_lanes`] over a float node's six plane arrays, written
 /// lane by lane over whole arrays so that the compiler vectorises it at the width the caller
 /// is compiled for; 4-lane `glam` vectors stay 4 lanes wide in an AVX2 function, and
-/// `_mm256` intrinsics are not inlined into a generic walk (8-lane intrinsics ran slower
-/// than the 4-lane test). The operations and their order are those of `slab_test_lanes`, so
+/// `_mm256` intrinsics are not inlined into a generic walk (called out of line, 8-lane
+/// intrinsics are slower than the 4-lane test). The operations and their order are those of `slab_test_lanes`, so
 /// the results are the same bits: `if c > acc { c } else { acc }` is `maxps(c, acc)`, which
 /// keeps `acc` when `c` is NaN (see [`max_ignoring_nan`]), and an infinite distance becomes
 /// NaN when widened and misses.
 ///
 /// `FUSED` computes each distance as one fused multiply-add, `plane * inv + offset` with
 /// `offset = -origin * inv` (tinybvh's and Embree's form), where the unfused form subtracts
-/// and multiplies: faster mesh rays (docs/experiments.md, Rays on meshes). Only for walks
+/// and multiplies: faster mesh rays (BENCHMARKS.md, Rays on meshes). Only for walks
 /// compiled with FMA; elsewhere `mul_add` is a library call. The fused distance is not the
 /// unfused one to the bit but stays conservative. The offset's rounding is an absolute error (of the size of
 /// `|origin * inv|`, large far from the origin), which the relative widening would not cover,
@@ -276,11 +273,10 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 /// `COSTLY_LEAVES` says that visiting a primitive takes long next to a node fetch (an
 /// announcing walk's, whose primitives are entities with a mesh behind them): the interior
 /// children a node's ray hits are then asked for before its leaves are visited, so that their
-/// fetch overlaps that work instead of following it. On the picking bench that made a ray at
-/// 10^5 entities faster (docs/experiments.md, Picking). Every closest-hit query runs as an
-/// announcing walk whose hook does nothing
-/// ([`closest_hit`](crate::query::ray_walk::closest_hit)), mesh BVHs'
-/// included; walking those with it off measured no different on the picking bench.
+/// fetch overlaps that work instead of following it, which makes picking rays faster
+/// (BENCHMARKS.md, Picking). Every closest-hit query runs as an announcing walk whose hook
+/// does nothing ([`closest_hit`](crate::query::ray_walk::closest_hit)), mesh BVHs' included;
+/// walking those with it off makes no measurable difference.
 ///
 /// `ORDERED` off visits leaves and descends into children in slot order, unsorted: for walks
 /// that stop at the first hit whatever its distance (occlusion), as Embree's and tinybvh's
@@ -292,9 +288,9 @@ pub(super) fn leaf_mask_of<T: Copy + Default + PartialEq, const N: usize>(count:
 /// The closures that carry `visit` to the leaves are `#[inline(always)]`, as are those of the
 /// queries built on this walk (`query::ray_walk`) and the mesh BVHs' leaf tests: a closure
 /// left out of line is a function of its own, compiled for the baseline target, so the mesh
-/// BVHs' 4-lane triangle test ran as SSE2 code called from the AVX2 walk. Inlined, it is
-/// compiled with the walk: closest-hit mesh rays faster, incoherent ones level
-/// (docs/experiments.md, Rays on meshes).
+/// BVHs' 4-lane triangle test would run as SSE2 code called from the AVX2 walk. Inlined, it
+/// is compiled with the walk, which makes closest-hit mesh rays faster (BENCHMARKS.md, Rays
+/// on meshes).
 // Always inlined, so that the AVX2 copy of the announcing walk (`query.rs`) compiles this
 // loop with AVX2 instead of calling the SSE one.
 #[inline(always)]
@@ -317,9 +313,9 @@ pub(super) fn visit_ray<
     F: FnMut(u32, &mut Ray) -> ControlFlow<()>,
 {
     // No test of the root's box first: the root node's test covers its children, whose boxes
-    // lie inside it, so a ray that misses the tree finds no child and stops there. The extra
-    // scalar test slowed the rays that start inside the tree (every shadow and bounce ray)
-    // for nothing (docs/experiments.md, Rays on meshes).
+    // lie inside it, so a ray that misses the tree finds no child and stops there. An extra
+    // scalar test would slow the rays that start inside the tree (every shadow and bounce
+    // ray) for nothing.
     //
     // An untraceable ray is turned away here, not left to the slab test: with every
     // reciprocal NaN (a NaN direction) each axis reads as unconstraining, and a degenerate
@@ -344,8 +340,8 @@ pub(super) fn visit_ray<
         // Leaves first: their hits shrink the range before any subtree is chosen. Nearest
         // first among them, so that a near hit cuts off the leaves behind it: since the
         // least-cost collapse (`plan.rs`) fills nodes, a node holds more leaves, and in
-        // leaf order the picking bench's rays reached 8% more candidates, and ran slower
-        // (docs/experiments.md, Picking).
+        // leaf order rays reach more candidates, which slows picking rays (BENCHMARKS.md,
+        // Picking).
         let mut leaf_hits = mask & leaves;
         if COSTLY_LEAVES && leaf_hits != 0 {
             let mut inner = mask & !leaves;
@@ -359,9 +355,9 @@ pub(super) fn visit_ray<
         // A walk whose hook does nothing (every `walk_ray`, the mesh BVHs' rays among them)
         // compiles this loop away (see `for_each_leaf_id`), but only because the loop is
         // bounded by N: LLVM may not assume that a Rust loop ends, so `while announced != 0`
-        // with an empty body stayed in the code as a loop over the bits, with its
-        // mispredicted exit, which slowed mesh rays, shadow rays most (docs/experiments.md,
-        // Rays on meshes). (Masks are counted with `x & (x - 1)`, here and below: the
+        // with an empty body would stay in the code as a loop over the bits, with its
+        // mispredicted exit, which slows mesh rays, shadow rays most (BENCHMARKS.md, Rays on
+        // meshes). (Masks are counted with `x & (x - 1)`, here and below: the
         // baseline x86-64 target has no `popcnt`, and `count_ones` costs a dozen
         // instructions per node without it.)
         if has_several(leaf_hits) {
@@ -402,9 +398,8 @@ pub(super) fn visit_ray<
         }
         // Insertion sort by entry distance: at most N items. Written out here and again for
         // the interior children below: one shared helper (a sort-order argument and a
-        // closure for the stored value) ran rays clearly slower on the 1M-triangle scene
-        // (`ray_timing`, now `accel-bench rays`, alternated with this code; docs/experiments.md, Rays on meshes), so
-        // the two loops stay apart.
+        // closure for the stored value) makes rays on the million-triangle scene clearly
+        // slower (BENCHMARKS.md, Rays on meshes), so the two loops stay apart.
         let range_before = ray.t_max;
         let mut leaf_order = [(0.0f32, 0u32); N];
         let mut leaf_count = 0;
@@ -440,8 +435,7 @@ pub(super) fn visit_ray<
         let inner = mask & !leaves;
         // Children that now start beyond the shrunk range. Only a hit on a leaf shrinks it;
         // otherwise the node test's range check stands for every child (with the
-        // popcount-free counting above, a paired gain on picking rays: docs/experiments.md,
-        // Picking).
+        // popcount-free counting above, faster picking rays: BENCHMARKS.md, Picking).
         let mut kept = if ray.t_max == range_before {
             inner
         } else {

@@ -89,9 +89,9 @@ impl<const N: usize, L: WideLayout<N>> WideBvh<N, L> {
     /// world), a whole refit reads every primitive's box, most of them unchanged, at one
     /// cache miss each. This recomputes the one slot on each level of a moved primitive's
     /// path, shared slots once (children before parents), reading the child node just
-    /// written, not its seven siblings (on the picking bench, with 1,000 of 100,000 entities
-    /// moving, that gained a little over recomputing every slot of the nodes on the paths:
-    /// the misses along the paths dominate; docs/experiments.md, Picking).
+    /// written, not its seven siblings (a little faster than recomputing every slot of the
+    /// nodes on the paths when a few of many entities move: the misses along the paths
+    /// dominate; BENCHMARKS.md, Picking).
     ///
     /// ```
     /// use spatial_accel::{Aabb, BuildConfig, Bvh, Ray, SpatialQuery};
