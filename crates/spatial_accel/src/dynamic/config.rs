@@ -39,9 +39,9 @@ pub struct DynamicBvhConfig {
     /// pool, level by level, the wide levels in chunks. The result is the same bits as on one
     /// thread. Needs the cargo feature `rayon`; without it this is ignored.
     ///
-    /// Off by default: on a two-vCPU machine the parallel replay measured slower than one
-    /// thread (`accel-bench update`; docs/experiments.md, Dynamic BVH), the replay being
-    /// bound by memory bandwidth the vCPUs share. Worth measuring on a machine with more
+    /// Off by default: on a two-vCPU machine the parallel replay gains little or nothing over
+    /// one thread (BENCHMARKS.md, Dynamic BVH), the replay being bound by memory bandwidth the
+    /// vCPUs share. Worth measuring on a machine with more
     /// cores and memory channels.
     pub parallel_refit: bool,
 }

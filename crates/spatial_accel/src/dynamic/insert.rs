@@ -152,8 +152,8 @@ impl DynamicBvh {
 
     /// Recomputes box and height of `index` and its ancestors, rotating each when asked
     /// (Box2D v3 does the same after insertion). The walk stops at the first ancestor whose
-    /// box and height did not change: Box2D walks to the root every time, which made
-    /// insertion three times slower here at 100k leaves for no change in the tree.
+    /// box and height did not change: Box2D walks to the root every time, which in a large
+    /// tree costs most of an insertion's time for no change in the tree.
     pub(super) fn fix_upwards(&mut self, mut index: u32, rotate: bool) {
         while index != NULL {
             let n = self.arena.nodes[index as usize];

@@ -22,8 +22,8 @@ impl StaticDynamicPair {
     /// updated since its last refit, so that rays walk it again.
     ///
     /// Why not drop it: in a world where a few entities move every frame, a dropped snapshot
-    /// would leave rays on the binary tree for good (on the picking bench at 100,000 entities,
-    /// 2-3 times slower per ray). The snapshot's shape ages with the motion, as any refit
+    /// would leave rays on the binary tree for good, much slower per ray (BENCHMARKS.md,
+    /// Picking). The snapshot's shape ages with the motion, as any refit
     /// tree's does; [`Self::refresh_dynamic_ray_snapshot`] rebuilds it.
     pub fn refit_dynamic_ray_snapshot(&mut self) {
         self.dynamic_rays.refit(&self.dynamic);
@@ -88,8 +88,7 @@ impl StaticDynamicPair {
     /// boxes, so it does not wait for a refit of the inner boxes.
     ///
     /// Why: a binary tree is deep, and a ray through one visits several times as many nodes
-    /// as through a wide one (on the picking bench, 52 binary nodes per ray at 10,000
-    /// entities, against about 10 wide ones). Rebuilding the wide form after every change
+    /// as through a wide one (BENCHMARKS.md, Picking). Rebuilding the wide form after every change
     /// would cost more than the rays save, so call this when the dynamic tree has stopped
     /// changing: it costs one build over the leaves, and then nothing until the tree changes.
     ///
@@ -209,9 +208,9 @@ impl RayWalk for StaticDynamicPair {
 
 /// The static tree as rays walk it: 16-wide, ids inlined. Why 16: a ray through a large
 /// static world waits on each level's node in turn, and the 16-wide tree has a quarter fewer
-/// levels than the 8-wide one (rays at 10^5 entities ran faster, paired, and faster again
-/// once its node test ran 8 lanes at a time: docs/experiments.md, Picking). The collapse
-/// costs about a third more than the 8-wide one (BENCHMARKS.md, Static BVH builds).
+/// levels than the 8-wide one (faster rays, the more so with its node test 8 lanes at a
+/// time: BENCHMARKS.md, Picking). The collapse costs more than the 8-wide one
+/// (BENCHMARKS.md, Static BVH builds).
 pub(super) fn wide_for_rays(static_tree: &Bvh) -> Bvh16 {
     let mut wide = Bvh16::from_bvh(static_tree);
     wide.inline_single_leaves();

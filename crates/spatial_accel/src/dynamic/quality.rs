@@ -8,11 +8,11 @@
 //! rebuild (when a fresh build's cost is known). The sample is rebuilt every few frames that changed the
 //! tree, so the estimate follows the scene as it spreads, clusters, or as leaves grow fat.
 //!
-//! The first version scaled the last build's internal-to-leaf area ratio by the current leaf
-//! area. That is O(1), but leaf areas and internal areas do not grow together: in the 100k
-//! soak, where moving leaves are fattened along their motion, it came out 4x too high, so the
-//! tree looked four times better than a fresh build and the monitor never fired. A sampled
-//! build over-reads such inflation a little instead, which errs towards an early rebuild.
+//! Why not scale the last build's internal-to-leaf area ratio by the current leaf area, which
+//! is O(1): leaf areas and internal areas do not grow together. Where moving leaves are
+//! fattened along their motion, such a scaled estimate comes out far too high, so the tree
+//! looks much better than a fresh build and the monitor never fires. A sampled build
+//! over-reads such inflation a little instead, which errs towards an early rebuild.
 //!
 //! The tree is also rebuilt when its leaf count doubled or halved since the last rebuild,
 //! which keeps the measured fraction calibrated, and
@@ -383,8 +383,8 @@ impl DynamicBvh {
         self.schedule.invalidate();
         let len = self.arena.nodes.len();
         // Freed straight to the arena, outside the area sums: taking every internal node's
-        // area out one by one drove the sum below its cancellation threshold again and again
-        // near the end, each time an O(n) recount (docs/experiments.md, Dynamic BVH).
+        // area out one by one would drive the sum below its cancellation threshold again and
+        // again near the end, each time an O(n) recount.
         for i in 0..len as u32 {
             if self.arena.nodes[i as usize].is_internal() {
                 self.arena.free(i);

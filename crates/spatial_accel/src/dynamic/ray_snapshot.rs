@@ -2,24 +2,22 @@
 //! another thread, refit along the paths of leaves that move, and dropped at the next
 //! insertion or removal.
 //!
-//! A binary tree is deep: on the picking bench a ray through the dynamic tree of 10,000
-//! entities visits 52 binary nodes, against about 10 wide ones through the static tree.
-//! Building a wide tree after every change would cost more than the rays save, so it is built
-//! once the tree's set of leaves holds still, and refit while they move.
+//! A binary tree is deep: a ray waits on each level's node in turn, and a binary tree has
+//! four times the levels of a 16-wide one over the same leaves. Building a wide tree after
+//! every change would cost more than the rays save, so it is built once the tree's set of
+//! leaves holds still, and refit while they move.
 //!
 //! It is a fresh build over the leaves' *tight* boxes, not a copy of the dynamic tree's
 //! shape. Why: the dynamic tree is shaped for motion (fat boxes, insertions, rotations),
-//! while the snapshot only refits tight boxes in place and is rebuilt when it has aged. On
-//! the picking bench at 100,000 entities, rays through a
-//! copy of the dynamic tree's shape (even refit to the tight boxes) visited 18.1 wide nodes
-//! and 3.67 candidates each, and ran clearly slower than through a PLOC build over the same
-//! boxes, which visited 13.4 and 3.33, as many as the static tree over the same entities
-//! (docs/experiments.md, Picking).
+//! while the snapshot only refits tight boxes in place and is rebuilt when it has aged. Rays
+//! through a copy of the dynamic tree's shape, even refit to the tight boxes, visit more
+//! wide nodes and more candidates, and run clearly slower, than through a PLOC build over
+//! the same boxes, which visits as many as the static tree over the same entities
+//! (BENCHMARKS.md, Picking).
 //!
 //! 16-wide, as the static tree's ray copy, since the walk's 16-wide node test runs 8 lanes at
-//! a time (`bvh/wide/ray.rs`): rays through the snapshot of 100,000 entities at rest ran
-//! faster than through an 8-wide one, and with 1% of them moving every frame the refits took
-//! no longer (docs/experiments.md, Picking).
+//! a time (`bvh/wide/ray.rs`): rays through the snapshot are faster than through an 8-wide
+//! one, and its refits cost no more while entities move (BENCHMARKS.md, Picking).
 
 use super::DynamicBvh;
 use crate::bvh::wide::{Bvh16, RefitPaths};

@@ -12,9 +12,9 @@ impl DynamicBvh {
     /// are recomputed in order of height (children before parents), each at most once, and a
     /// node is visited only if a child's box or height actually changed: a fat leaf box that
     /// moved inside its parent's box stops there. Most moves change a few levels, so the
-    /// cost follows the boxes that changed, not the number of distinct ancestors (the first
-    /// version marked every ancestor up to the root and recomputed them all: ~3 cache misses
-    /// each at 100k leaves). With
+    /// cost follows the boxes that changed, not the number of distinct ancestors (marking every
+    /// ancestor up to the root and recomputing them all would pay cache misses at each of
+    /// them). With
     /// [`DynamicBvhConfig::rotations`](super::DynamicBvhConfig::rotations) every node whose
     /// box changed is also offered a Kopta 2012 rotation: motion is exactly what makes a node's
     /// children overlap, and fixing it where it happens is cheaper than finding it later.
@@ -188,8 +188,8 @@ impl DynamicBvh {
 }
 
 /// Above `leaf_count / WHOLE_TREE_REFIT_SHARE` dirty leaves, [`DynamicBvh::refit`] sweeps the
-/// whole tree instead of queueing the dirty paths (measured on the 100k benches: the sweep
-/// costs about what the bucketed refit costs for a quarter of the leaves).
+/// whole tree instead of queueing the dirty paths: the sweep costs about what the bucketed
+/// refit costs for that share of the leaves (BENCHMARKS.md, Dynamic BVH).
 const WHOLE_TREE_REFIT_SHARE: usize = 4;
 
 /// Queues internal node `node` (unless null or already queued) in the bucket of its height,

@@ -3,9 +3,8 @@
 //!
 //! A depth-first refit over the arena is a chain of dependent loads: each node's children are
 //! known only once the node has arrived, and the arena's order is random after insertions, so
-//! at 100k leaves every step waits a full memory latency, an order of magnitude longer than
-//! a line costs when the loads are independent and prefetched (`accel-bench update` measures
-//! both; docs/experiments.md, Dynamic BVH). The schedule turns the refit into independent
+//! in a large tree every step waits a full memory latency, far longer than a line costs when
+//! the loads are independent and prefetched (BENCHMARKS.md, Dynamic BVH). The schedule turns the refit into independent
 //! loads:
 //!
 //! - **Compiling** walks the tree breadth-first. The queue names every node long before it
@@ -36,10 +35,9 @@ use crate::prefetch::prefetch_node;
 /// Arena slots stay below 2^31 ([`super::node::MAX_NODES`]), so the bit is free.
 const LEAF_CHILD: u32 = 1 << 31;
 
-/// How many entries ahead the replay asks for the nodes it will read and write. Why 40: at
-/// 100k leaves, with the whole arena in the last-level cache, distances from 6 to 160
-/// entries were measured; shorter ones leave part of each load's latency uncovered, longer
-/// ones measured slower too, and 40 was the fastest (the figures are in docs/experiments.md,
+/// How many entries ahead the replay asks for the nodes it will read and write. Why 40:
+/// shorter distances leave part of each load's latency uncovered, longer ones are slower too,
+/// and 40 is the fastest of those tried on the whole-tree refit benchmark (BENCHMARKS.md,
 /// Dynamic BVH).
 const PREFETCH_DISTANCE: usize = 40;
 
@@ -118,8 +116,8 @@ impl RefitSchedule {
                 level_end = self.queue.len();
             }
             // The queue names its nodes long before they are read: ask for the one a fixed
-            // distance ahead. (Asking when a node is queued, a whole level ahead, fetched
-            // megabytes early at the wide levels, and the lines were evicted before use.)
+            // distance ahead. (Asking when a node is queued, a whole level ahead, would fetch
+            // megabytes early at the wide levels, and the lines would be evicted before use.)
             if let Some(&(ahead, _, _)) = self.queue.get(k + COMPILE_PREFETCH_DISTANCE) {
                 prefetch_node(&nodes[ahead as usize]);
             }
