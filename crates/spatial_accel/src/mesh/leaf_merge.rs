@@ -16,14 +16,13 @@ const COUNTED_REFERENCES: usize = 64;
 ///
 /// Why, twice over. A builder costs a leaf by its references, but a leaf is packed with each
 /// triangle once (`packets.rs`), so pieces of one triangle in sibling leaves cost a ray one
-/// test of that triangle per leaf where one would do; on the 1M-triangle benchmark scene,
-/// pieces of a triangle cluster next to each other along the build's Morton curve, and
-/// without this more pieces made rays slower. And a builder costs a leaf per triangle, but a
-/// ray tests a leaf [`LANES`] triangles at a time, so one to four triangles cost one test:
-/// priced so (tinybvh prices its 4-wide leaves the same way), sibling leaves of one or two
-/// triangles merge into fuller packets: the SBVH of that scene had 10% fewer packets and 11%
-/// fewer nodes, and traced every kind of ray faster, shadow rays most
-/// (docs/experiments.md, Rays on meshes). The builders' own collapse cannot see either;
+/// test of that triangle per leaf where one would do; pieces of a triangle cluster next to
+/// each other along the build's Morton curve, so without this more pieces would make rays
+/// slower. And a builder costs a leaf per triangle, but a ray tests a leaf [`LANES`]
+/// triangles at a time, so one to four triangles cost one test: priced so (tinybvh prices its
+/// 4-wide leaves the same way), sibling leaves of one or two triangles merge into fuller
+/// packets, for fewer packets and nodes and faster rays of every kind, shadow rays most
+/// (BENCHMARKS.md, Rays on meshes). The builders' own collapse cannot see either;
 /// this pass, bottom-up, keeps the cheaper of leaf and node under `traversal * area + children` against
 /// `intersection * area * LANES * packets`.
 pub(super) fn merge_leaves(bvh: &mut Bvh, triangle_of: Option<&[u32]>, config: &BuildConfig) {

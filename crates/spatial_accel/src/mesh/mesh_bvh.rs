@@ -124,9 +124,9 @@ enum Recipe {
 /// The wide layout the mesh tree uses.
 ///
 /// 16-wide rather than 8: the 16-wide node test runs 8 lanes at a time where the walk is
-/// compiled with AVX2 (`bvh/wide/ray.rs`), and on the 1M-triangle scene that made diffuse
-/// and incoherent rays faster, primary and shadow rays level, for a slightly slower build
-/// (docs/experiments.md, Rays on meshes).
+/// compiled with AVX2 (`bvh/wide/ray.rs`), which makes diffuse and incoherent rays on the
+/// million-triangle scene faster, for a slightly slower build (BENCHMARKS.md, Rays on
+/// meshes).
 pub type MeshTree = Bvh16;
 
 impl MeshBvh {
@@ -145,12 +145,11 @@ impl MeshBvh {
     /// The pre-split budget [`MeshBvh::new`] uses: up to 30% more references than
     /// triangles, Karras and Aila's choice.
     ///
-    /// On the 1M-triangle benchmark scene (bunnies among large slanted triangles,
-    /// then `examples/ray_timing.rs`, now `accel-bench rays`) every kind of ray traces faster
-    /// than over whole triangles, for a build about twice as long; budgets from 0.2 to 0.4
-    /// trace alike (docs/experiments.md, Rays on meshes). A mesh of like triangles (a tessellated sphere,
-    /// the bunny) has none worth cutting and builds as before, less a pass over its
-    /// triangles.
+    /// On the million-triangle benchmark scene (bunnies among large slanted triangles) every
+    /// kind of ray traces faster than over whole triangles, for a longer build; budgets from
+    /// 0.2 to 0.4 trace alike (BENCHMARKS.md, Rays on meshes). A mesh of like triangles (a
+    /// tessellated sphere, the bunny) has none worth cutting and builds as over whole
+    /// triangles, but for one pass over its triangles.
     pub const DEFAULT_SPLIT_BUDGET: f32 = 0.3;
 
     /// The build [`MeshBvh::new`] uses for a mesh of `triangles` triangles: binned SAH up to
@@ -158,15 +157,15 @@ impl MeshBvh {
     /// triangles chosen by cost either way.
     ///
     /// A mesh is built once and traced for many frames, so it reinserts more than
-    /// [`SplitStrategy::PLOC`] (1.2%, the preset balanced against build speed): on the 1M-triangle
-    /// benchmark scene 1.2% traced shadow and diffuse rays slower than 1.5% did.
+    /// [`SplitStrategy::PLOC`] (1.2%, the preset balanced against build speed): on the
+    /// million-triangle benchmark scene, 1.2% traces shadow and diffuse rays slower than 1.5%
+    /// (BENCHMARKS.md, Rays on meshes).
     ///
-    /// Why the two builds: on a 1,088-triangle sphere the binned tree answers rays faster than
-    /// the PLOC one (and both build in a blink); on the 1M-triangle benchmark scene PLOC
-    /// builds more than twice as fast and its tree traces as fast or faster
-    /// (then `examples/ray_timing.rs` and `examples/mesh_timing.rs`, now `accel-bench rays`
-    /// and `meshes`; docs/experiments.md, Static BVH builds). Where between the two the
-    /// crossover lies was not measured.
+    /// Why the two builds: on a small mesh (a sphere of about a thousand triangles) the binned
+    /// tree answers rays faster than the PLOC one, and both build in a blink; on the
+    /// million-triangle benchmark scene PLOC builds much faster and its tree traces as fast or
+    /// faster (BENCHMARKS.md, Static BVH builds and Rays on meshes). Where between the two the
+    /// crossover lies is not measured.
     pub fn default_config(triangles: usize) -> BuildConfig {
         if triangles <= 1 << 16 {
             BuildConfig::default()
@@ -218,7 +217,7 @@ impl MeshBvh {
     /// strategy is not used.
     ///
     /// The highest-quality and slowest build, for static meshes traced many times: on the
-    /// 1M-triangle benchmark scene it builds several times slower than the pre-split
+    /// million-triangle benchmark scene it builds much slower than the pre-split
     /// [`MeshBvh::new`] and traces every kind of ray faster than that tree, incoherent rays
     /// most (BENCHMARKS.md, Rays on meshes). Queries and refits behave as after
     /// [`MeshBvh::with_splits`].
@@ -515,8 +514,8 @@ impl MeshBvh {
     ///
     /// A triangle with a non-finite corner is never hit; one that had such a corner when the
     /// tree was built is in no leaf, so a pose that makes it finite again builds the tree
-    /// anew (with the build's own settings): a refit would leave it unreachable, and rays the
-    /// brute-force oracle sends through it missed.
+    /// anew (with the build's own settings): a refit would leave it unreachable, and rays
+    /// through it would miss.
     pub fn refit(&mut self, vertices: &[Vec3]) -> Result<(), MeshError> {
         if vertices.len() != self.vertex_count {
             return Err(MeshError::VertexCountChanged {

@@ -15,10 +15,9 @@ pub(super) const NO_TRIANGLE: u32 = u32::MAX;
 /// Four triangles' corners and their ids, side by side.
 ///
 /// Why the ids sit here and not in an array of their own: a closest-hit ray reads its hit
-/// triangle's id once it has finished, and from a separate array that read was a cache miss
-/// at the end of nearly every ray (two thirds of the hit record's time under `perf`). Here it
-/// shares the lines the leaf test has just read: closest-hit rays on the 1M-triangle SBVH ran
-/// faster (docs/experiments.md, Rays on meshes). 160 bytes, where the corners alone are 144,
+/// triangle's id once it has finished, and from a separate array that read is a cache miss
+/// at the end of nearly every ray. Here it shares the lines the leaf test has just read, which
+/// makes closest-hit rays faster (BENCHMARKS.md, Rays on meshes). 160 bytes, where the corners alone are 144,
 /// which also keeps a packet on three cache lines (at 144 bytes one in four straddles four).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(16))]

@@ -20,8 +20,7 @@ const MAX_PIECES_PER_TRIANGLE: u32 = 256;
 
 /// Triangles whose boxes waste less than this many times the mean waste are not cut, however
 /// much budget is left: in a mesh of like triangles (a tessellated sphere, the bunny) cuts
-/// buy rays a few percent for a build several times slower (docs/experiments.md, Rays on
-/// meshes).
+/// buy rays little for a much slower build.
 const WORTH_CUTTING: f64 = 4.0;
 
 /// A triangle whose box is larger (in area) than this many typical leaves' boxes of the mesh
@@ -30,12 +29,12 @@ const WORTH_CUTTING: f64 = 4.0;
 ///
 /// Why: in a mesh of like triangles that are each large against the mesh's leaves (a soup of
 /// large overlapping triangles: the benchmark scene's large triangles built as a mesh of their
-/// own), every waste is near the mean, so the rule above cut none of them, while rays through
-/// such a mesh walk leaves of overlapping large boxes. With this rule the benchmark's
-/// two-level scene, answered almost wholly inside that mesh, traced faster; the flattened
-/// scene, whose large triangles the rule above already cut, the sphere and the bunny, whose
-/// triangles are smaller than their leaves, are as before (docs/experiments.md, Mesh builds
-/// and instanced scenes).
+/// own), every waste is near the mean, so the rule above cuts none of them, while rays through
+/// such a mesh walk leaves of overlapping large boxes. With this rule rays through the
+/// benchmark's two-level scene, answered almost wholly inside that mesh, are faster
+/// (BENCHMARKS.md, Rays on meshes); the flattened scene, whose large triangles the rule above
+/// already cuts, and the sphere and the bunny, whose triangles are smaller than their leaves,
+/// are unaffected.
 const LARGE_AGAINST_LEAVES: f32 = 1.0;
 
 /// Triangles in the typical leaf that [`LARGE_AGAINST_LEAVES`] measures against: one packet.

@@ -38,10 +38,9 @@ impl Default for SpatialSplits {
     /// Half again as many references as triangles, 16 bins, and spatial splits priced where
     /// the children overlap in more than 10^-5 of the root's area (Stich et al.'s choice).
     ///
-    /// Measured on the 1M-triangle benchmark scene (then `examples/ray_timing.rs`, now
-    /// `accel-bench rays`): tinybvh's 8 bins and 10^-4 build faster, with incoherent rays
-    /// level but primary and diffuse rays slower; a budget of 1.0 or 32 bins traced no
-    /// faster (docs/experiments.md, Mesh builds and instanced scenes).
+    /// On the million-triangle benchmark scene (BENCHMARKS.md, Rays on meshes), tinybvh's 8
+    /// bins and 10^-4 build faster but trace primary and diffuse rays slower; a larger budget
+    /// or more bins trace no faster.
     fn default() -> Self {
         Self {
             reference_budget: 0.5,

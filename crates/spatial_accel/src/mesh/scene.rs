@@ -235,9 +235,9 @@ pub(super) fn top_level_over(boxes: &[Aabb]) -> Bvh8 {
     // One instance a leaf. Why: the walk calls back for every primitive of a leaf whose box
     // it hits, with no test of the primitive's own box, and here a call means moving the ray
     // into the instance and walking its mesh. On the benchmark scene split into overlapping
-    // instances, leaves of up to eight instances (the default) entered 14.3 instances per
-    // incoherent ray, one instance a leaf 4.7, and every kind of ray ran faster
-    // (docs/experiments.md, Mesh builds and instanced scenes).
+    // instances, leaves of up to eight instances (the default) make a ray enter many more
+    // instances than one instance a leaf does, and every kind of ray is slower
+    // (BENCHMARKS.md, Rays on meshes).
     let config = BuildConfig {
         max_leaf_size: 1,
         ..BuildConfig::default()

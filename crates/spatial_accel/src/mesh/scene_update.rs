@@ -138,11 +138,10 @@ impl InstancedScene {
     /// The default of [`set_rebuild_threshold`](Self::set_rebuild_threshold): refits may
     /// leave the top level 10% looser than when it was built.
     ///
-    /// Why 10%: with 10,000 instances of which 10% or all move every frame, rays through
-    /// the updated top level stayed within a few percent of a fresh one's at a fraction of a
-    /// new scene's cost a frame; looser thresholds saved little time for clearly slower
-    /// rays, and never rebuilding let rays fall far behind (BENCHMARKS.md, Mesh builds and
-    /// instanced scenes; docs/experiments.md, same section).
+    /// Why 10%: with many instances moving every frame, rays through the updated top level
+    /// stay close to a fresh one's at a fraction of a new scene's cost a frame; looser
+    /// thresholds save little time for clearly slower rays, and never rebuilding lets rays
+    /// fall far behind (BENCHMARKS.md, Mesh builds and instanced scenes).
     pub const DEFAULT_REBUILD_THRESHOLD: f32 = 1.1;
 
     /// Sets how much looser than when it was built refits may leave the top level before
@@ -266,8 +265,8 @@ impl InstancedScene {
         }
         // Why: where one update's motion loosens a fresh tree past the threshold (instances
         // moving their own size every frame), the refit is wasted work before the rebuild:
-        // at 100,000 instances all moving it made a frame markedly dearer than the rebuild
-        // alone (docs/experiments.md, Mesh builds and instanced scenes).
+        // with many instances all moving it makes a frame markedly dearer than the rebuild
+        // alone (BENCHMARKS.md, Mesh builds and instanced scenes).
         if upkeep.fresh {
             upkeep.refits_fail_from = Some(changed_count);
             upkeep.direct_rebuilds = 0;
