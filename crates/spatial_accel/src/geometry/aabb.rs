@@ -245,9 +245,9 @@ impl Aabb {
     ///
     /// Why not the centre/half-extent form: its rounding is relative to the centre and the
     /// extent, not to the corners. A box from `-100` to `1e30` has its centre and half extent
-    /// at `5e29`, and `c - h` rounded its low corner up to `0`: the world box of an instance
-    /// of such a mesh left out the mesh's ordinary triangles, and the top level never offered
-    /// rays to them.
+    /// at `5e29`, and `c - h` rounds its low corner up to `0`: the world box of an instance
+    /// of such a mesh would leave out the mesh's ordinary triangles, and the top level would
+    /// never offer rays to them.
     ///
     /// ```
     /// use spatial_accel::Aabb;

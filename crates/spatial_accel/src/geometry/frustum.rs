@@ -114,7 +114,7 @@ impl Frustum {
         // centre and half extents: rounded sums and products are monotone in their
         // arguments, so the distance of a larger box's p-vertex never rounds below a smaller
         // box's. The centre form rounds the centre and the radius apart, which far from the
-        // origin (1e7) lost boxes whose own test passed (the stress suite's frustum misses).
+        // origin (1e7) loses boxes whose own test passes (the stress suite's frustum misses).
         let mut inside = true;
         for plane in &self.planes {
             let positive = plane.normal.cmpge(Vec3A::ZERO);

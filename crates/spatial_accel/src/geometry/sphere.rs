@@ -10,7 +10,7 @@ use glam::{Affine3A, Vec3A};
 /// An invalid sphere (a NaN or infinite centre, a NaN or negative radius) holds nothing: every
 /// test here says no, and every structure's sphere query reports nothing for it. Its bound is
 /// rotation-invariant, which makes it cheap to keep up to date for spinning objects, but it
-/// encloses a box loosely (up to 2.7x the volume of a cube's bound).
+/// encloses a box loosely (up to 2.7 times the volume of a cube's bound).
 ///
 /// ```
 /// use spatial_accel::{Aabb, Sphere};
@@ -162,10 +162,10 @@ impl Sphere {
 /// True when the vector `d` (non-negative components) is no longer than `r`.
 ///
 /// Why the scaling: squaring overflows above about `1.8e19` (and underflows below `1e-19`),
-/// after which every distance compared equal to an infinite `r * r`. Each component is at
+/// after which every distance compares equal to an infinite `r * r`. Each component is at
 /// most `r` once the first test passes, so scaling by a power of two chosen from `r` alone
-/// keeps the squares in range; a power of two scales exactly, so ordinary radii, which are
-/// not scaled, compare as before.
+/// keeps the squares in range; a power of two scales exactly, and ordinary radii are not
+/// scaled at all.
 #[inline]
 fn within(d: Vec3A, r: f32) -> bool {
     // NaN components fail here.

@@ -110,9 +110,9 @@ impl WatertightRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         // Arrays and selects, not `Vec3A::max_position` and `Vec3A` indexed by a run-time axis
-        // (each a `match`): on random directions their branches mispredicted, and preparing a
-        // ray took several times as long; diffuse and incoherent rays on the 1M-triangle
-        // scene ran faster without them (docs/experiments.md, Core geometry).
+        // (each a `match`): on random directions their branches mispredict, which makes
+        // preparing a ray far dearer; diffuse and incoherent mesh rays are faster without them
+        // (BENCHMARKS.md, Rays on meshes).
         let d = ray.direction.to_array();
         let a = ray.direction.abs().to_array();
         // The first of the largest components (`max_position`'s rule; NaN picks x).

@@ -149,7 +149,7 @@ impl WatertightRay {
         // single test's six comparisons, and `det` (a sum of three nonzero values of one
         // sign) cannot be zero. A NaN edge function (unused lanes are NaN) makes `det`, and
         // so `t`, NaN, which the range test rejects. The same verdicts as the single test, in
-        // fewer instructions (docs/experiments.md, Core geometry).
+        // fewer instructions (BENCHMARKS.md, Core geometry).
         let det = u + v + w;
         let mixed_signs = sign_differences(u, v) | sign_differences(v, w);
         let back = det.is_negative_bitmask();

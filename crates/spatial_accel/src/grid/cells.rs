@@ -368,8 +368,9 @@ mod tests {
     use super::*;
 
     /// Cells that once spilled and fell back to their inline items keep small empty lists,
-    /// which no trim frees. A regression: each later trim walked every cell again (a tenth
-    /// of a 1M-entity frame's upkeep), where the waste had not grown since the last walk.
+    /// which no trim frees. Later trims must not walk every cell again while the waste has
+    /// not grown since the last walk: in a large world that walk is a real share of the
+    /// upkeep.
     #[test]
     fn trim_walks_the_cells_again_only_once_the_waste_doubled() {
         let mut table = CellTable::default();

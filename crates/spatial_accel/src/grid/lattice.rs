@@ -192,8 +192,8 @@ impl Lattice {
     pub fn coord(&self, x: f32) -> i32 {
         // Clamped first, so the truncation below is exact and in range (NaN, which callers
         // never pass, goes to 0). The floor is taken by hand: `f32::floor` is a call into libm
-        // on baseline x86-64 (no SSE4.1 `roundss`), six per edit of a box, and it showed in
-        // the grid's update profile. A float at or above 2^23 is an integer already, so
+        // on baseline x86-64 (no SSE4.1 `roundss`), six per edit of a box, enough to show in
+        // the grid's update profile (BENCHMARKS.md, Uniform grid). A float at or above 2^23 is an integer already, so
         // `i as f32` is exact wherever the comparison matters.
         let y = (x * self.inv).clamp(-LIMIT as f32, LIMIT as f32);
         let i = y as i32;

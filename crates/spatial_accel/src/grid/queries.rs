@@ -60,12 +60,12 @@ impl UniformGrid {
     /// test, which they share.
     ///
     /// Why blocks: a view sees a small part of a large grid, and a pass over every cell of
-    /// the table cost the frustum several times the BVH's walk (BENCHMARKS.md, Uniform grid).
+    /// the table costs the frustum far more than the BVH's walk (BENCHMARKS.md, Uniform grid).
     /// Where the cells fill most of their occupied range, that range is halved down to blocks
     /// of [`VIEW_BLOCK_CELLS`], each skipped whole when the box of what its cells can report
     /// fails (an implicit octree over the cell keys, built by the query itself); the cells of
-    /// the blocks left are found by lookups. A sparse table is passed over as before, since
-    /// lookups of empty keys would cost more than it.
+    /// the blocks left are found by lookups. A sparse table is passed over whole, since
+    /// lookups of empty keys would cost more than the pass.
     fn for_each_lowest<S, K, F>(&self, state: &mut S, skip: K, mut visit: F)
     where
         K: Fn(&mut S, &Aabb) -> bool,

@@ -6,10 +6,9 @@ use super::tree::LooseTree;
 
 /// How far an octant's node bounds reach past its entries' union, as a fraction of its
 /// cell's half size: a box that moves inside that margin (and inside its loose cell) costs
-/// one box write and no refit. Why: with exact bounds every move of every entry queued its
-/// octant and, through the changed bounds, its ancestors, so a world of small movers paid a
-/// refit per mover per frame (the plugin's whole-frame bench; docs/experiments.md, Loose
-/// octree). This is the dynamic BVH's fat leaf, sized by the cell rather than the box.
+/// one box write and no refit. Why: with exact bounds every move of every entry would queue
+/// its octant and, through the changed bounds, its ancestors, so a world of small movers
+/// would pay a refit per mover per frame (BENCHMARKS.md, Loose octree). This is the dynamic BVH's fat leaf, sized by the cell rather than the box.
 pub(super) const OWN_MARGIN: f32 = 0.5;
 
 /// How many queued octants ahead the refit asks for the next one: a few octants' unions

@@ -2,10 +2,10 @@
 //!
 //! The rules come from the whole-frame measurements (BENCHMARKS.md, Whole frame): with many
 //! movers, the uniform grid's O(1) update saves the BVH's refit and optimiser, while the BVH's
-//! rays are the faster ones. With a tenth or a quarter of the entities moving, the grid won
+//! rays are the faster ones. With a tenth or a quarter of the entities moving, the grid wins
 //! every measured frame, under a strategy camera as under a ground camera (its culling walk
 //! costs a little more than the BVH's, far less than the upkeep it saves); with nothing
-//! moving the two tied. So the grid is chosen for a busy set of movers that few rays walk,
+//! moving the two tie. So the grid is chosen for a busy set of movers that few rays walk,
 //! whatever is in view, the BVH otherwise. The octree, the quadtree and the flat list win no
 //! measured workload, and the advisor never picks them.
 

@@ -109,10 +109,10 @@ where
     // A queue, not a stack: the order primitives come out in is not promised, and in a
     // queue the node read `PREFETCH_AHEAD` steps from now is already known, so its fetch
     // starts that many steps early. A depth-first walk reads each node right after pushing
-    // it, and in a tree larger than the cache it waited one memory latency per node (with
-    // the queue, and subtree spans read from a table, a walk at 1M entities, 5% in view, took
-    // about half as long: docs/experiments.md, Culling). Each entry carries its
-    // parent's masks: the views holding it whole, and those to ask.
+    // it, and in a tree larger than the cache it waits one memory latency per node; the
+    // queue, with subtree spans read from a table, overlaps those waits (BENCHMARKS.md,
+    // Culling). Each entry carries its parent's masks: the views holding it whole, and those
+    // to ask.
     let mut queue: Vec<(u32, ViewMasks)> = Vec::with_capacity(256);
     queue.push((root, ViewMasks::undecided(views)));
     let mut next = 0;
