@@ -101,8 +101,8 @@ impl StaticDynamicPair {
     }
 
     /// Replaces the static tree with one prepared ahead (on another thread, say), returning
-    /// the old one with its tables: O(1). Why whole: freeing a large tree's arrays takes
-    /// milliseconds, which a caller may rather spend off the frame too.
+    /// the old one with its tables: O(1). Why whole: freeing a large tree's arrays is work of
+    /// its own, which a caller may rather do off the frame too.
     pub fn set_static_prepared(&mut self, prepared: PreparedStatic) -> PreparedStatic {
         PreparedStatic {
             wide: core::mem::replace(&mut self.static_wide, prepared.wide),

@@ -56,7 +56,7 @@ pub struct MaintainReport {
 const SAMPLE_LEAVES: usize = 1024;
 
 /// Maintain calls between two sample builds (only calls after which the tree had changed
-/// count): a build over the sample costs a few hundred microseconds here, so it is spread out.
+/// count): a build over the sample is too dear for every call, so it is spread out.
 const SAMPLE_PERIOD: u32 = 16;
 
 #[derive(Clone, Copy, Debug)]

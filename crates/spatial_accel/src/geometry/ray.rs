@@ -125,7 +125,7 @@ impl Ray {
         self.origin + self.direction * t
     }
 
-    /// The same ray limited to `t <= t_max` (used to shrink the search after a hit).
+    /// The same ray limited to `t <= t_max` (for shrinking the search after a hit).
     #[inline]
     pub fn with_t_max(mut self, t_max: f32) -> Self {
         self.t_max = self.t_max.min(t_max);

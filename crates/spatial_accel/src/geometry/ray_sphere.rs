@@ -90,7 +90,7 @@ impl Ray {
         let l = f + self.direction * (b / a);
         // One correction step. `b` is a dot product of numbers of size |f|, so its rounding
         // leaves `l` off along the direction by a few ulps of |f|: at 1e5 that is more than the
-        // radius of a 1 cm sphere, and rays dead on its centre missed. The residual `l . d` is
+        // radius of a 1 cm sphere, and rays dead on its centre would miss. The residual `l . d` is
         // small and computed accurately, so removing it leaves only the rounding of the products.
         let l = l - self.direction * (l.dot(self.direction) / a);
         let discriminant = a * (sphere.radius * sphere.radius - l.length_squared());

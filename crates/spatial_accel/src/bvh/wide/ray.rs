@@ -108,8 +108,8 @@ impl<const N: usize> SlotRayTest<N> for WideNode<N> {
 /// lane by lane over whole arrays so that the compiler vectorises it at the width the caller
 /// is compiled for; 4-lane `glam` vectors stay 4 lanes wide in an AVX2 function, and
 /// `_mm256` intrinsics are not inlined into a generic walk (called out of line, 8-lane
-/// intrinsics are slower than the 4-lane test). The operations and their order are those of `slab_test_lanes`, so
-/// the results are the same bits: `if c > acc { c } else { acc }` is `maxps(c, acc)`, which
+/// intrinsics are slower than the 4-lane test). The operations and their order are those of
+/// `slab_test_lanes`, so the results are the same bits: `if c > acc { c } else { acc }` is `maxps(c, acc)`, which
 /// keeps `acc` when `c` is NaN (see [`max_ignoring_nan`]), and an infinite distance becomes
 /// NaN when widened and misses.
 ///
