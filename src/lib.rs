@@ -1,20 +1,31 @@
 //! # bevy_accel
 //!
-//! Acceleration structures over a Bevy world's entities. Add [`AccelPlugin`] and every entity
-//! with an `Aabb` and a `GlobalTransform` is kept in the trees (a BVH, or a uniform grid while
-//! many entities move: [`IndexChoice`]; entities that move every frame in a flat list beside
-//! them: [`BusyMoverSettings`]), in step with its transform, every frame, at no cost in frames
-//! where nothing changed. Query them through [`AccelTrees`].
+//! Acceleration structures over a Bevy world's entities, kept in step with them every
+//! frame: one set of trees serves frustum culling, ray picking, spatial queries and a
+//! ray-traced preview. Add [`AccelPlugins`] after Bevy's `DefaultPlugins`:
 //!
-//! The geometry lives in the engine-independent crate [`spatial_accel`] (re-exported); this crate only
-//! connects it to the ECS.
+//! ```no_run
+//! use bevy::prelude::*;
+//! use bevy_accel::prelude::*;
+//!
+//! App::new()
+//!     .add_plugins((DefaultPlugins, AccelPlugins))
+//!     .run();
+//! ```
+//!
+//! Every entity with an `Aabb` and a `GlobalTransform` (Bevy gives meshes and sprites an
+//! `Aabb`) is then in the trees: a static tree for entities marked [`AccelStatic`], a
+//! dynamic index for the rest ([`IndexChoice`]: a BVH, or a grid while many entities move),
+//! and a flat list for entities that move every frame ([`BusyMoverSettings`]). Culling
+//! ([`AccelCullingPlugin`]) and picking ([`AccelPickingPlugin`]) replace Bevy's own passes
+//! with walks of the trees and give Bevy's results; systems ask the trees directly:
 //!
 //! ```
 //! use bevy::prelude::*;
 //! use bevy::camera::primitives::Aabb;
+//! use bevy::math::bounding::BoundingSphere;
+//! use bevy::ecs::system::RunSystemOnce;
 //! use bevy_accel::prelude::*;
-//! use bevy_accel::spatial_accel::{Ray, SpatialQuery};
-//! use bevy::math::Vec3A;
 //!
 //! let mut app = App::new();
 //! app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin::default()));
@@ -24,11 +35,13 @@
 //!     .id();
 //! app.update();
 //!
-//! let trees = app.world().resource::<AccelTrees>();
-//! let ray = Ray::new(Vec3A::ZERO, Vec3A::NEG_Z);
-//! let hit = trees.query().cast_ray(&ray, |slot, r| r.intersect_aabb(&trees.world_bounds(slot))).unwrap();
-//! assert_eq!(trees.entity(hit.primitive), Some(cube));
-//! assert!((hit.t - 4.5).abs() < 1e-5);
+//! let found = app
+//!     .world_mut()
+//!     .run_system_once(|mut query: AccelSpatialQuery| {
+//!         query.overlap_sphere(BoundingSphere::new(Vec3::new(0.0, 0.0, -4.0), 1.0)).to_vec()
+//!     })
+//!     .unwrap();
+//! assert_eq!(found, [cube]);
 //! ```
 //!
 //! ## What is tracked
@@ -41,13 +54,23 @@
 //!
 //! An entity whose transform is not finite or has a zero scale is left out, with one warning,
 //! until its transform is valid again; [`AccelStats::rejected`] counts them.
+//!
+//! ## The crate's parts
+//! The geometry and every structure live in the engine-independent crate [`spatial_accel`]
+//! (re-exported); this crate connects them to the ECS:
+//!
+//! - `trees`: [`AccelTrees`], the slots of the tracked entities and what each slot holds.
+//! - [`index`]: [`EntityIndex`], the structures that hold the slots, queried as one.
+//! - `systems`: the frame's sync and upkeep, in the sets of [`AccelSystems`].
+//! - `spatial_query`: [`AccelSpatialQuery`], overlap and nearest queries for any system.
+//! - [`culling`], [`picking`], [`overlays`], [`panel`], [`preview`]: the services, each its
+//!   plugin and cargo feature.
 #![warn(missing_docs)]
 
 mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
 pub mod index;
-mod local_frame;
 #[cfg(feature = "picking")]
 mod meshes;
 #[cfg(feature = "overlays")]
@@ -56,109 +79,77 @@ pub mod overlays;
 pub mod panel;
 #[cfg(feature = "picking")]
 pub mod picking;
-mod prefetch;
+mod plugin;
 #[cfg(feature = "preview")]
 pub mod preview;
-mod scenery;
 mod settings;
+mod spatial_query;
 mod stats;
-mod sync;
+mod systems;
 mod trees;
 
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
-pub use culling::{AccelCullingPlugin, AccelCullingSettings};
+pub use culling::{AccelCullingPlugin, AccelCullingSettings, AccelCullingSystems, CullingStats};
 pub use index::{
-    AutomaticIndexSettings, AutomaticIndexStats, BusyMoverSettings, BusyMovers, EntityIndex,
+    AutomaticIndexSettings, AutomaticIndexStats, BvhIndexSettings, BvhIndexStats, EntityIndex,
     IndexChoice,
 };
-#[cfg(feature = "sprite_picking")]
-pub use picking::AccelSpritePickingPlugin;
+#[cfg(feature = "overlays")]
+pub use overlays::{
+    AccelGizmos, AccelOverlaySettings, AccelOverlayStats, AccelOverlaySystems, AccelOverlaysPlugin,
+};
+#[cfg(feature = "egui")]
+pub use panel::{AccelPanelPlugin, AccelPanelSettings, AccelPanelSystems};
 #[cfg(feature = "picking")]
-pub use picking::{AccelPickingPlugin, AccelRayCast};
+pub use picking::{
+    AccelHitExtra, AccelPickingCamera, AccelPickingPlugin, AccelPickingSettings, AccelPickingStats,
+    AccelPickingSystems, AccelRayCast, SlotMeshTableMode,
+};
+#[cfg(feature = "sprite_picking")]
+pub use picking::{AccelSpritePickingMode, AccelSpritePickingPlugin, AccelSpritePickingSettings};
+pub use plugin::{AccelPlugin, AccelPlugins};
+#[cfg(feature = "preview")]
+pub use preview::{
+    AccelPreviewMode, AccelPreviewPlugin, AccelPreviewSettings, AccelPreviewStats,
+    AccelPreviewSystems, PreviewPlacement,
+};
 pub use settings::{AccelSettings, StaticTreeBuild};
 pub use spatial_accel;
+pub use spatial_query::AccelSpatialQuery;
 pub use stats::AccelStats;
-pub use trees::{AccelTrees, LocalFrame, TreeSlot};
+pub use systems::AccelSystems;
+pub use trees::{AccelTrees, BusyMoverSettings, BusyMovers, LocalFrame, TreeSlot};
 
-use bevy::camera::visibility::VisibilitySystems;
-use bevy::prelude::*;
-use bevy::transform::TransformSystems;
-
-/// The most used items.
+/// Everything a game needs to use the crate: `use bevy_accel::prelude::*;`.
 pub mod prelude {
-    pub use crate::index::{
-        AutomaticIndexSettings, BusyMoverSettings, BusyMovers, BvhIndexSettings, IndexChoice,
-    };
+    /// The engine-independent core, for its structures and geometry (`spatial_accel::bsp`,
+    /// `spatial_accel::Ray`, ...).
+    pub use crate::spatial_accel;
+    #[cfg(feature = "culling")]
+    pub use crate::{AccelCullingPlugin, AccelCullingSettings, AccelCullingSystems, CullingStats};
+    #[cfg(feature = "overlays")]
     pub use crate::{
-        AccelIgnore, AccelPlugin, AccelSettings, AccelStatic, AccelStats, AccelSystems,
-        AccelTracked, AccelTrees, StaticTreeBuild,
+        AccelGizmos, AccelOverlaySettings, AccelOverlayStats, AccelOverlaySystems,
+        AccelOverlaysPlugin,
     };
     #[cfg(feature = "picking")]
-    pub use crate::{AccelPickingPlugin, AccelRayCast};
-}
-
-/// The plugin's system sets, in `PostUpdate`, in this order, after transform propagation and
-/// bounds calculation and before visibility checks (so culling sees this frame's trees).
-#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum AccelSystems {
-    /// Entities inserted, updated and removed.
-    Sync,
-    /// The dynamic tree refit, optimised, and rebuilt when its quality decays.
-    Maintain,
-    /// Statistics and diagnostics published.
-    Stats,
-}
-
-/// Keeps acceleration trees over the world's entities; see the [crate docs](crate).
-#[derive(Default)]
-pub struct AccelPlugin {
-    /// Initial settings (the [`AccelSettings`] resource can be changed at runtime).
-    pub settings: AccelSettings,
-}
-
-impl Plugin for AccelPlugin {
-    fn build(&self, app: &mut App) {
-        app.insert_resource(self.settings.clone())
-            .register_type::<AccelSettings>()
-            .register_type::<index::IndexChoice>()
-            .register_type::<StaticTreeBuild>()
-            .register_type::<index::BvhIndexSettings>()
-            .register_type::<index::AutomaticIndexSettings>()
-            .register_type::<index::BusyMoverSettings>()
-            .register_type::<index::BusyMovers>()
-            .register_type::<AccelIgnore>()
-            .register_type::<AccelStatic>()
-            .register_type::<AccelTracked>()
-            .init_resource::<AccelTrees>()
-            .init_resource::<AccelStats>()
-            .init_resource::<index::AutomaticIndex>()
-            .init_resource::<sync::PendingMembership>()
-            .init_resource::<sync::RejectedEntities>()
-            .configure_sets(
-                PostUpdate,
-                (
-                    AccelSystems::Sync,
-                    AccelSystems::Maintain,
-                    AccelSystems::Stats,
-                )
-                    .chain()
-                    .after(TransformSystems::Propagate)
-                    .after(VisibilitySystems::CalculateBounds)
-                    .before(VisibilitySystems::CheckVisibility)
-                    .run_if(|s: Res<AccelSettings>| s.enabled),
-            )
-            .add_systems(
-                PostUpdate,
-                (
-                    (index::advise_index, sync::sync_trees)
-                        .chain()
-                        .in_set(AccelSystems::Sync),
-                    index::maintain_index.in_set(AccelSystems::Maintain),
-                    stats::publish_stats.in_set(AccelSystems::Stats),
-                ),
-            );
-        sync::add_membership_observers(app);
-        AccelStats::register(app);
-    }
+    pub use crate::{
+        AccelHitExtra, AccelPickingCamera, AccelPickingPlugin, AccelPickingSettings,
+        AccelPickingStats, AccelPickingSystems, AccelRayCast, SlotMeshTableMode,
+    };
+    pub use crate::{
+        AccelIgnore, AccelPlugin, AccelPlugins, AccelSettings, AccelSpatialQuery, AccelStatic,
+        AccelStats, AccelSystems, AccelTracked, AccelTrees, AutomaticIndexSettings,
+        BusyMoverSettings, BusyMovers, BvhIndexSettings, IndexChoice, StaticTreeBuild,
+    };
+    #[cfg(feature = "egui")]
+    pub use crate::{AccelPanelPlugin, AccelPanelSettings, AccelPanelSystems};
+    #[cfg(feature = "preview")]
+    pub use crate::{
+        AccelPreviewMode, AccelPreviewPlugin, AccelPreviewSettings, AccelPreviewStats,
+        AccelPreviewSystems, PreviewPlacement,
+    };
+    #[cfg(feature = "sprite_picking")]
+    pub use crate::{AccelSpritePickingMode, AccelSpritePickingPlugin, AccelSpritePickingSettings};
 }

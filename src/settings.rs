@@ -1,6 +1,7 @@
 //! Runtime settings of the plugin.
 
-use crate::index::{AutomaticIndexSettings, BusyMoverSettings, BvhIndexSettings, IndexChoice};
+use crate::index::{AutomaticIndexSettings, BvhIndexSettings, IndexChoice};
+use crate::trees::BusyMoverSettings;
 use bevy::prelude::*;
 use core::time::Duration;
 
@@ -20,7 +21,7 @@ pub struct AccelSettings {
     /// Watch [`AccelStatic`](crate::AccelStatic) entities for motion too, rebuilding the
     /// static tree when one moves. Off by default: the marker promises the entity does not
     /// move, and watching costs a change-detection scan over every static entity each frame
-    /// (see docs/experiments.md, Plugin sync). A static entity that moves while this is off
+    /// (BENCHMARKS.md, Plugin sync). A static entity that moves while this is off
     /// keeps its old box until the marker is removed or inserted again.
     pub watch_static_motion: bool,
     /// The structure that holds the moving entities; [`IndexChoice::Automatic`] by default.

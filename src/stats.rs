@@ -1,8 +1,7 @@
 //! What the trees did this frame, as a resource and as Bevy diagnostics.
 
 use crate::index::{AutomaticIndexStats, BvhIndexStats, IndexChoice};
-use crate::trees::AccelTrees;
-use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
+use bevy::diagnostic::{Diagnostic, DiagnosticPath, RegisterDiagnostic};
 use bevy::prelude::*;
 use core::time::Duration;
 use spatial_accel::query::{IndexStats, UpkeepReport};
@@ -36,7 +35,7 @@ pub struct AccelStats {
     /// Time spent refitting, optimising and (maybe) rebuilding the dynamic tree.
     pub maintain_time: Duration,
     /// Rays cast through the trees per frame (those counted by
-    /// [`AccelTrees::count_rays`], as `AccelRayCast` counts its own), averaged over about ten
+    /// `AccelRayCast`, the picking backends and the preview), averaged over about ten
     /// frames: what the ray snapshot and picking's slot mesh table are kept for.
     pub rays_per_frame: f32,
     /// Dynamic entities: those in the dynamic index and the busy movers.
@@ -85,37 +84,5 @@ impl AccelStats {
         ] {
             app.register_diagnostic(Diagnostic::new(path));
         }
-    }
-}
-
-/// Copies tree shape into the stats and the diagnostics; every figure is O(1) to read (the
-/// depth is the root's stored height: a walk of the tree, once a second, cost a frame hitch of
-/// milliseconds at 100k entities).
-pub(crate) fn publish_stats(
-    trees: Res<AccelTrees>,
-    mut stats: ResMut<AccelStats>,
-    mut diagnostics: Diagnostics,
-) {
-    if trees.is_changed() {
-        let index = trees.query();
-        stats.busy_movers = index.busy_movers().len();
-        stats.dynamic_entities = index.dynamic_len() + stats.busy_movers;
-        stats.static_entities = trees.static_len();
-        stats.static_waiting = trees.static_waiting_len();
-        stats.static_build_in_flight = trees.static_build_in_flight();
-        stats.index = index.choice();
-        stats.dynamic_index = index.dynamic_stats();
-    }
-    let s = &*stats;
-    diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
-    diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || {
-        s.maintain_time.as_secs_f64() * 1e3
-    });
-    diagnostics.add_measurement(&AccelStats::ENTITIES, || {
-        (s.dynamic_entities + s.static_entities) as f64
-    });
-    diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_index.depth as f64);
-    if let Some(ratio) = s.dynamic_index.quality_ratio {
-        diagnostics.add_measurement(&AccelStats::QUALITY_RATIO, || ratio as f64);
     }
 }

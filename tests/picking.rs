@@ -282,6 +282,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
     app.world_mut()
         .run_system_once(
             |mut ours: AccelRayCast,
+             mut spatial: AccelSpatialQuery,
              targets: Query<(Entity, &Aabb, &GlobalTransform)>,
              trees: Res<AccelTrees>| {
                 let mut rng = Rng::from_state(11);
@@ -362,16 +363,16 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                 let mut nonempty = 0;
                 for _ in 0..100 {
                     let p = rng.vec3(-50.0, 50.0);
-                    let got = ours.overlap_point(p).to_vec();
+                    let got = spatial.overlap_point(p).to_vec();
                     assert_eq!(got, brute(&|b| b.contains_point(p)));
                     let half = Vec3::splat(rng.range(0.0, 10.0));
                     let query = Aabb3d::new(p, half);
                     let q = bevy_accel::spatial_accel::Aabb::new(p - half, p + half);
-                    let got = ours.overlap_aabb(query).to_vec();
+                    let got = spatial.overlap_aabb(query).to_vec();
                     assert_eq!(got, brute(&|b| b.intersects_aabb(&q)));
                     nonempty += usize::from(!got.is_empty());
                     let r = rng.range(0.0, 10.0);
-                    let got = ours.overlap_sphere(BoundingSphere::new(p, r)).to_vec();
+                    let got = spatial.overlap_sphere(BoundingSphere::new(p, r)).to_vec();
                     assert_eq!(got, brute(&|b| b.distance_squared_to_point(p) <= r * r));
                     let view = Mat4::look_at_rh(p, rng.vec3(-50.0, 50.0), Vec3::Y);
                     let proj = Mat4::perspective_rh(0.8, 1.5, 0.1, rng.range(5.0, 80.0));
@@ -379,7 +380,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
                     let frustum = Frustum(ViewFrustum::from_clip_from_world(&clip));
                     let planes = frustum.half_spaces.map(|h| h.normal_d());
                     let f = bevy_accel::spatial_accel::Frustum::from_planes(planes);
-                    let got = ours.overlap_frustum(&frustum).to_vec();
+                    let got = spatial.overlap_frustum(&frustum).to_vec();
                     assert_eq!(got, brute(&|b| f.intersects_aabb(b)));
                 }
                 assert!(nonempty > 10);

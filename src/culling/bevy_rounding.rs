@@ -6,9 +6,9 @@
 //! same numbers by other operations, so the two agree only up to rounding. A box that touches
 //! a plane can then be "behind" it for the tree and touching for Bevy: an adversarial search
 //! (boxes up to 1e6 from the origin, a third of them flat, planes through their corners,
-//! nudged by a few ulps) found 33 such false negatives in 2 million cases. Classifying the
-//! tree box grown by a few ulps of its coordinates leaves room for that rounding: in the same
-//! search, none (the test below). The planes walked are Bevy's own, made safe for the trees
+//! nudged by a few ulps) finds such false negatives. Classifying the tree box grown by a few
+//! ulps of its coordinates leaves room for that rounding: the same search finds none (the
+//! test below). The planes walked are Bevy's own, made safe for the trees
 //! where Bevy's test would read them differently ([`tree_plane`]).
 
 use crate::trees::AccelTrees;
@@ -85,8 +85,8 @@ pub(crate) fn tree_plane(v: Vec4) -> Vec4 {
 #[cfg(test)]
 mod tests {
     use super::{classify_for_bevy, tree_plane};
-    use crate::culling::bevy_tests::bevy_frustum_test;
-    use crate::sync::placement;
+    use crate::culling::bevy_rules::bevy_frustum_test;
+    use crate::trees::placement;
     use accel_testkit::Rng;
     use bevy::camera::primitives::{Aabb, Frustum};
     use bevy::math::primitives::{HalfSpace, ViewFrustum};

@@ -46,8 +46,7 @@ impl ClassLists {
 /// finds in slot order, which follows Bevy's tables; then the entities outside the trees), and
 /// the unstable sort is linear only on a single run; on two it sorts from scratch, several
 /// times slower than the stable sort, which merges runs. On many runs the unstable sort is
-/// the faster, so the runs are counted first (one pass). Measured on 50k entities:
-/// docs/experiments.md, Culling.
+/// the faster, so the runs are counted first (one pass).
 pub(crate) fn sort_visible(list: &mut [Entity]) {
     /// Up to this many runs, merging them beats sorting from scratch.
     const MERGE_UP_TO_RUNS: usize = 8;

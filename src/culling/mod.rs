@@ -15,13 +15,13 @@
 //!
 //! - `camera/`: the camera views' system and its passes.
 //! - `light/`: the shadow views of lights (cargo feature `light_culling`).
-//! - Shared by both: `bevy_tests` (Bevy's own per-entity rules), `bevy_rounding` (tree
+//! - Shared by both: `bevy_rules` (Bevy's own per-entity rules), `bevy_rounding` (tree
 //!   verdicts Bevy's tests cannot contradict), `class_lists` (visible entities per class),
 //!   `slot_order` (found slots in slot order), `untracked` (entities no walk finds) and
 //!   `stats` ([`CullingStats`]).
 
 mod bevy_rounding;
-mod bevy_tests;
+mod bevy_rules;
 mod camera;
 mod class_lists;
 #[cfg(feature = "light_culling")]
@@ -53,6 +53,12 @@ impl Default for AccelCullingSettings {
         Self { use_trees: true }
     }
 }
+
+/// The culling systems: the camera views' in Bevy's `VisibilitySystems::CheckVisibility`, the
+/// light views' in bevy_light's `SimulationLightSystems::CheckLightVisibility`, all in
+/// `PostUpdate` after [`AccelSystems::Stats`].
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct AccelCullingSystems;
 
 /// Replaces Bevy's CPU frustum culling with a traversal of the [`AccelTrees`](crate::AccelTrees).
 ///
@@ -103,6 +109,7 @@ impl Plugin for AccelCullingPlugin {
             PostUpdate,
             camera::cull_views_with_trees
                 .in_set(VisibilitySystems::CheckVisibility)
+                .in_set(AccelCullingSystems)
                 .after(AccelSystems::Stats)
                 .after(check_visibility_ranges),
         );

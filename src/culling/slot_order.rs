@@ -1,8 +1,8 @@
 //! The slots a view's tree walk found, handed back in slot order.
 
-use crate::prefetch::prefetch;
 #[cfg(feature = "light_culling")]
 use bevy::prelude::Entity;
+use spatial_accel::prefetch::prefetch;
 
 /// How many keys ahead of its lookup a slot's entries are prefetched: enough lookups to cover
 /// a memory latency.
@@ -13,10 +13,10 @@ pub(crate) const LOOKUP_AHEAD: usize = 64;
 ///
 /// Why slot order: slots are handed out as the sync system meets entities, which is the order
 /// of Bevy's tables, so deciding entities by slot makes their component reads nearly sequential
-/// where the walk's spatial order makes each one a cache miss. Why not a comparison sort: at
-/// 1M entities with 5% in view, sorting the 50k finds took longer than the walk itself
-/// (`accel-bench culling`; docs/experiments.md, Culling). When the finds are dense in the slot
-/// range a bitset over the slots orders them in linear time instead.
+/// where the walk's spatial order makes each one a cache miss. Why not a comparison sort: in
+/// a large world a view's tens of thousands of finds take longer to sort than to walk
+/// (BENCHMARKS.md, Culling). When the finds are dense in the slot range a bitset over the
+/// slots orders them in linear time instead.
 #[derive(Default)]
 pub(crate) struct FoundSlots {
     /// In walk order until sorted.
@@ -144,8 +144,7 @@ impl FoundSlots {
     /// The sorted keys, each with the entry of `by_slot` for its slot prefetched
     /// [`LOOKUP_AHEAD`] keys earlier. Why: ascending slots are still scattered through a
     /// large world's slot arrays (a view's slab of a grid is a few slots of every row), too far
-    /// apart for the hardware prefetcher; a lookup per key waiting on memory was nearly all of
-    /// the drain's time (docs/experiments.md, Culling).
+    /// apart for the hardware prefetcher; without the hints, a lookup per key waits on memory.
     #[cfg(feature = "light_culling")]
     fn sorted_keys_prefetching<'a>(
         keys: &'a [SlotKey],

@@ -3,7 +3,7 @@
 use super::AccelCullingSettings;
 use crate::components::{AccelIgnore, AccelTracked};
 use crate::settings::AccelSettings;
-use crate::sync::RejectedEntities;
+use crate::systems::RejectedEntities;
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::{NoCpuCulling, NoFrustumCulling};
 use bevy::ecs::system::SystemParam;

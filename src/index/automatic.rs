@@ -2,10 +2,8 @@
 //! by the core's [`IndexAdvisor`].
 
 use super::IndexChoice;
-use crate::settings::AccelSettings;
-use crate::stats::AccelStats;
 use bevy::prelude::*;
-use spatial_accel::query::{IndexAdvice, IndexAdvisor, IndexWorkload};
+use spatial_accel::query::IndexAdvice;
 
 /// The thresholds of [`IndexChoice::Automatic`], in
 /// [`AccelSettings::automatic`](crate::AccelSettings::automatic). The defaults follow the
@@ -67,66 +65,4 @@ pub struct AutomaticIndexStats {
     pub moved_share: f32,
     /// Averaged rays a frame.
     pub rays_per_frame: f32,
-}
-
-/// The advisor behind [`IndexChoice::Automatic`].
-#[derive(Resource, Default)]
-pub(crate) struct AutomaticIndex(IndexAdvisor);
-
-impl AutomaticIndex {
-    /// The concrete structure `choice` asks for now.
-    pub(crate) fn resolve(&self, choice: IndexChoice) -> IndexChoice {
-        match choice {
-            IndexChoice::Automatic => IndexChoice::of_kind(self.0.current()),
-            fixed => fixed,
-        }
-    }
-}
-
-/// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
-/// only while the choice is automatic, so a fixed index pays nothing for it.
-pub(crate) fn advise_index(
-    settings: Res<AccelSettings>,
-    mut automatic: ResMut<AutomaticIndex>,
-    mut stats: ResMut<AccelStats>,
-) {
-    if settings.index != IndexChoice::Automatic {
-        stats.automatic = None;
-        return;
-    }
-    let advice = settings.automatic.advice();
-    if *automatic.0.advice() != advice {
-        automatic.0.set_advice(advice);
-    }
-    let kind = automatic.0.observe(IndexWorkload {
-        entries: stats.dynamic_entities,
-        // The index's own movers: the busy movers' moves are no work of the index's.
-        moved: stats.moved - stats.busy_moved,
-        rays: stats.rays_per_frame,
-    });
-    stats.automatic = Some(AutomaticIndexStats {
-        recommended: IndexChoice::of_kind(kind),
-        moved_share: automatic.0.moved_share(),
-        rays_per_frame: automatic.0.rays_per_frame(),
-    });
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn automatic_resolves_to_the_advisors_structure_and_fixed_choices_to_themselves() {
-        let auto = AutomaticIndex::default();
-        assert_eq!(auto.resolve(IndexChoice::Automatic), IndexChoice::Bvh);
-        for choice in IndexChoice::ALL {
-            if choice != IndexChoice::Automatic {
-                assert_eq!(auto.resolve(choice), choice);
-            }
-        }
-        assert_eq!(
-            AutomaticIndexSettings::default().advice(),
-            IndexAdvice::default()
-        );
-    }
 }

@@ -1,29 +1,23 @@
-//! The index over the tracked entities, whatever its structure.
+//! The index over the tracked entities, whatever its structure: [`EntityIndex`] and its
+//! backends. It holds no entity and runs no system: slots, their entities and their own
+//! spaces are [`AccelTrees`](crate::AccelTrees)' (`trees`), and the systems that edit and
+//! keep it are in `systems`. Which structure holds the moving entities is [`IndexChoice`],
+//! set in [`AccelSettings::index`](crate::AccelSettings::index) and changeable at run time.
 //!
-//! Slots, their entities and their own spaces ([`AccelTrees`](crate::AccelTrees)) and the
-//! sync know nothing of the structure; they reach it through [`EntityIndex`]. Which structure
-//! holds the moving entities is [`IndexChoice`], set in
-//! [`AccelSettings::index`](crate::AccelSettings::index) and changeable at run time.
-//!
-//! - `entity_index`: the structures, queried as one.
-//! - `bvh_backend`: the BVH's settings, stats and upkeep (its ray snapshot policy).
-//! - `upkeep`: the per-frame maintenance system, and the switch between structures.
-//! - `automatic`: [`IndexChoice::Automatic`], the structure chosen from the workload.
-//! - `busy_movers`: when entities that move frame after frame leave the structure for a
-//!   flat list ([`BusyMoverSettings`]).
+//! - `entity_index`: the static tree, the dynamic structure and the busy movers, queried as
+//!   one.
+//! - `bvh_backend`: the BVH's settings and stats.
+//! - `automatic`: the thresholds of [`IndexChoice::Automatic`], the structure chosen from the
+//!   workload.
 
 mod automatic;
-mod busy_movers;
 mod bvh_backend;
 mod entity_index;
-mod upkeep;
 
-pub(crate) use automatic::{AutomaticIndex, advise_index};
 pub use automatic::{AutomaticIndexSettings, AutomaticIndexStats};
-pub use busy_movers::{BusyMoverSettings, BusyMovers};
+pub(crate) use bvh_backend::dynamic_config;
 pub use bvh_backend::{BvhIndexSettings, BvhIndexStats};
 pub use entity_index::EntityIndex;
-pub(crate) use upkeep::maintain_index;
 
 use bevy::prelude::*;
 

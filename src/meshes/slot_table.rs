@@ -1,16 +1,13 @@
 //! The mesh of each tree slot, kept beside the trees so that a ray's mesh test needs no ECS
 //! read until it hits.
 //!
-//! Why: a ray's candidate that passes its oriented-box test used to read its entity's
-//! location record, its `Mesh3d` row and its visibility rows before its mesh BVH could be
-//! walked, and half of those walks miss. Perf on the picking bench put those reads at
-//! two-thirds of a candidate's time (slot record 24%, entity record 23%, `Mesh3d` row 21%);
-//! with the mesh found by slot, the walks that miss cost no ECS read at all, and rays run
-//! measurably faster through the table than through the ECS (docs/experiments.md, Picking).
+//! Why: without it, a ray's candidate that passes its oriented-box test reads its entity's
+//! location record, its `Mesh3d` row and its visibility rows before its mesh BVH can be
+//! walked, and half of those walks miss. Those reads are most of a candidate's time; with the
+//! mesh found by slot, the walks that miss cost no ECS read at all (BENCHMARKS.md, Picking).
 //!
 //! The price is upkeep: Bevy has no hook on a mutated `Mesh3d`, so the table is kept current
-//! by a `Changed` scan over every mesh entity each frame (its cost: docs/experiments.md,
-//! Picking).
+//! by a `Changed` scan over every mesh entity each frame.
 //! That pays only when rays are many, so by default the table is kept only while rays per
 //! frame outnumber the entities by a set ratio ([`SlotMeshTableMode::Auto`]).
 
@@ -35,8 +32,7 @@ pub enum SlotMeshTableMode {
     /// [`AccelPickingSettings::slot_mesh_table_rays_per_entity`](crate::picking::AccelPickingSettings)
     /// times the tracked entities, and dropped below half that. A pointer or two per frame
     /// never pays for the table's upkeep; hundreds of rays per frame do. Switching it on
-    /// costs one pass over the tracked entities, in that frame (docs/experiments.md,
-    /// Picking).
+    /// costs one pass over the tracked entities, in that frame.
     #[default]
     Auto,
     /// Always kept: for scenes that cast many rays from the first frame.
@@ -134,8 +130,7 @@ pub(crate) enum SlotMeshLookup<'a> {
         two_sided: bool,
         /// The entity has both visibility components, as Bevy's ray cast requires of what it
         /// hits. A ray cast whose [`RayCastVisibility`] is `Any` then needs no ECS read for
-        /// a hit, and skips the wait for the entity's location and its two visibility rows
-        /// (docs/experiments.md, Picking).
+        /// a hit, and skips the wait for the entity's location and its two visibility rows.
         ///
         /// [`RayCastVisibility`]: bevy::picking::mesh_picking::ray_cast::RayCastVisibility
         visibility_rows: bool,
@@ -185,7 +180,7 @@ impl SlotMeshTable {
     #[inline]
     pub(crate) fn prefetch(&self, slot: u32) {
         if let Some(entry) = self.by_slot.get(slot as usize) {
-            crate::prefetch::prefetch(entry);
+            spatial_accel::prefetch::prefetch(entry);
         }
     }
 

@@ -35,6 +35,11 @@ use bevy::picking::backend::ray::RayMap;
 use bevy::picking::mesh_picking::ray_cast::RayCastVisibility;
 use bevy::prelude::*;
 
+/// The picking systems: the backends in bevy_picking's `PickingSystems::Backend` (in
+/// `PreUpdate`), and the upkeep of the mesh cache and the slot mesh table in `PostUpdate`.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct AccelPickingSystems;
+
 /// Marks the cameras the backend casts from when [`AccelPickingSettings::require_markers`]
 /// is set (ignored otherwise).
 #[derive(Debug, Clone, Copy, Default, Component, Reflect)]
@@ -63,7 +68,7 @@ pub struct AccelPickingSettings {
     /// Under [`SlotMeshTableMode::Auto`], the rays per frame, per tracked entity, from which
     /// the table is kept: `1/300` by default. Keeping it costs a scan of every mesh entity's
     /// change ticks each frame, and it saves time on every ray cast; the default is where the
-    /// two met on the picking bench (docs/experiments.md, Picking).
+    /// two meet on the picking bench (BENCHMARKS.md, Picking).
     pub slot_mesh_table_rays_per_entity: f32,
 }
 
@@ -87,6 +92,22 @@ impl Default for AccelPickingSettings {
 ///
 /// Also sets up [`AccelRayCast`] (its mesh cache). Requires [`AccelPlugin`](crate::AccelPlugin)
 /// and Bevy's `PickingPlugin` (in `DefaultPlugins`) for the backend.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use bevy_accel::prelude::*;
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelPickingPlugin))
+///     .add_systems(Startup, |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
+///         commands.spawn(Camera3d::default());
+///         // Picked through the trees: the usual bevy_picking events follow.
+///         commands
+///             .spawn((Mesh3d(meshes.add(Cuboid::default())), Transform::from_xyz(0.0, 0.0, -4.0)))
+///             .observe(|click: On<Pointer<Click>>| info!("clicked {}", click.entity));
+///     })
+///     .run();
+/// ```
 #[derive(Default)]
 pub struct AccelPickingPlugin;
 
@@ -108,12 +129,14 @@ impl Plugin for AccelPickingPlugin {
             .add_systems(
                 PostUpdate,
                 meshes::invalidate_changed_meshes
+                    .in_set(AccelPickingSystems)
                     .after(AssetEventSystems)
                     .run_if(resource_exists::<Assets<Mesh>>),
             )
             .add_systems(
                 PostUpdate,
                 meshes::keep_slot_mesh_table
+                    .in_set(AccelPickingSystems)
                     .after(AccelSystems::Maintain)
                     .after(meshes::invalidate_changed_meshes)
                     .before(AccelSystems::Stats)
@@ -125,6 +148,7 @@ impl Plugin for AccelPickingPlugin {
                 PreUpdate,
                 backend::update_hits
                     .in_set(PickingSystems::Backend)
+                    .in_set(AccelPickingSystems)
                     // Without Bevy's picking plugins (or AccelPlugin) there is nothing to read
                     // or write: stay idle instead of failing parameter validation.
                     .run_if(resource_exists::<AccelTrees>)

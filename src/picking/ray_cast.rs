@@ -3,25 +3,21 @@
 use crate::meshes::{
     AccelMeshCache, CachedMesh, MeshShape, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
-use crate::sync::placement;
+use crate::trees::placement;
 use crate::{AccelTrees, LocalFrame};
-use bevy::camera::primitives::{Aabb as BevyAabb, Frustum};
+use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
 use bevy::ecs::entity::Entities;
 use bevy::ecs::system::SystemParam;
 use bevy::ecs::system::lifetimeless::Read;
-use bevy::math::bounding::{Aabb3d, BoundingSphere};
 use bevy::math::{Ray3d, Vec3A};
 use bevy::mesh::{Mesh2d, Mesh3d};
 use bevy::picking::mesh_picking::ray_cast::{
     MeshRayCastSettings, RayCastBackfaces, RayCastVisibility, RayMeshHit, SimplifiedMesh,
 };
 use bevy::prelude::*;
-use core::ops::ControlFlow;
 use spatial_accel::query::ray_walk::closest_hit_announcing;
-use spatial_accel::{
-    Aabb as AccelAabb, Backfaces, Containment, Frustum as AccelFrustum, Ray, SpatialQuery,
-};
+use spatial_accel::{Backfaces, Ray};
 use std::borrow::Cow;
 
 /// The entities Bevy's `MeshRayCast` can hit: those with a mesh.
@@ -33,9 +29,8 @@ type MeshFilter = Or<(With<Mesh3d>, With<Mesh2d>, With<SimplifiedMesh>)>;
 /// `MeshRayCast`.
 ///
 /// No `GlobalTransform`: a hit's world data comes from the frame's inverse (see
-/// [`LocalFrame::world_from_local`](crate::LocalFrame::world_from_local)). Perf put the wait
-/// for that row at a quarter of a candidate's test, and rays in the picking bench ran faster
-/// without it (docs/experiments.md, Picking).
+/// [`LocalFrame::world_from_local`](crate::LocalFrame::world_from_local)): waiting for that
+/// row was a large share of a candidate's test (BENCHMARKS.md, Picking).
 type MeshTargetData = (
     Read<InheritedVisibility>,
     Read<ViewVisibility>,
@@ -76,9 +71,10 @@ enum Target {
     Bounds,
 }
 
-/// Casts rays and overlap queries into the world through the [`AccelTrees`]: a drop-in for
+/// Casts rays into the world through the [`AccelTrees`] and each mesh's BVH: a drop-in for
 /// Bevy's `MeshRayCast` (same `cast_ray` signature, settings and results), so switching is a
-/// change of type.
+/// change of type. Overlap and nearest queries on the entities' boxes are
+/// [`AccelSpatialQuery`](crate::AccelSpatialQuery)'s.
 ///
 /// ```
 /// # use bevy::prelude::*;
@@ -139,7 +135,6 @@ pub struct AccelRayCast<'w, 's> {
     hits: Local<'s, Vec<PendingHit>>,
     output: Local<'s, Vec<(Entity, RayMeshHit)>>,
     batch_output: Local<'s, Vec<(usize, Entity, RayMeshHit)>>,
-    entities: Local<'s, Vec<Entity>>,
 }
 
 impl<'w, 's> AccelRayCast<'w, 's> {
@@ -202,79 +197,9 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         &self.batch_output
     }
 
-    /// Tracked entities whose world box contains `point`, sorted.
-    pub fn overlap_point(&mut self, point: Vec3) -> &[Entity] {
-        let p = Vec3A::from(point);
-        self.overlap(
-            |q, visit| q.for_each_containing_point(p, visit),
-            |b| b.contains_point(p),
-        )
-    }
-
-    /// Tracked entities whose world box overlaps `aabb`, sorted.
-    pub fn overlap_aabb(&mut self, aabb: Aabb3d) -> &[Entity] {
-        let query = AccelAabb::new(aabb.min, aabb.max);
-        self.overlap(
-            |q, visit| q.for_each_overlapping_aabb(&query, visit),
-            |b| b.intersects_aabb(&query),
-        )
-    }
-
-    /// Tracked entities whose world box overlaps `sphere`, sorted.
-    pub fn overlap_sphere(&mut self, sphere: BoundingSphere) -> &[Entity] {
-        let query = spatial_accel::Sphere::new(sphere.center, sphere.radius());
-        let r2 = sphere.radius() * sphere.radius();
-        self.overlap(
-            |q, visit| q.for_each_overlapping_sphere(&query, visit),
-            |b| b.distance_squared_to_point(sphere.center) <= r2,
-        )
-    }
-
-    /// Tracked entities whose world box is not outside `frustum` (all six planes count,
-    /// the far one included), sorted.
-    pub fn overlap_frustum(&mut self, frustum: &Frustum) -> &[Entity] {
-        let query = AccelFrustum::from_planes(frustum.half_spaces.map(|h| h.normal_d()));
-        let trees = &*self.trees;
-        self.entities.clear();
-        trees
-            .query()
-            .for_each_in_frustum(&query, |slot, containment| {
-                // `Inside` means the (fattened) tree box is inside, so the exact box is too.
-                if (containment == Containment::Inside
-                    || query.intersects_aabb(&trees.world_bounds(slot)))
-                    && let Some(entity) = trees.entity(slot)
-                {
-                    self.entities.push(entity);
-                }
-            });
-        self.entities.sort_unstable();
-        &self.entities
-    }
-
     /// The trees the queries run on.
     pub fn trees(&self) -> &AccelTrees {
         &self.trees
-    }
-
-    /// Runs an overlap traversal and keeps the candidates whose exact world box passes.
-    fn overlap(
-        &mut self,
-        traverse: impl FnOnce(&crate::EntityIndex, &mut dyn FnMut(u32) -> ControlFlow<()>),
-        exact: impl Fn(&AccelAabb) -> bool,
-    ) -> &[Entity] {
-        let trees = &*self.trees;
-        let entities = &mut *self.entities;
-        entities.clear();
-        traverse(trees.query(), &mut |slot| {
-            if exact(&trees.world_bounds(slot))
-                && let Some(entity) = trees.entity(slot)
-            {
-                entities.push(entity);
-            }
-            ControlFlow::Continue(())
-        });
-        entities.sort_unstable();
-        entities
     }
 
     /// Fills `hits` with the ray's hits, cut at the nearest blocking hit and sorted.
@@ -335,7 +260,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                         Some(SlotMeshLookup::NoMesh) => return None,
                         // The entity's location record, asked for now and read by the lookup
                         // below: its miss then overlaps the oriented-box test, instead of
-                        // following it (perf put a sixth of the candidate's time on it).
+                        // following it.
                         None => {
                             core::hint::black_box(locations.get(entity).ok().flatten());
                         }
@@ -344,8 +269,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                     // Bevy only tests meshes whose oriented box the ray meets. Tested before
                     // any component read: a third of the candidates stop here. No test of the
                     // exact world box first: the oriented box lies inside it, and the static
-                    // trees' boxes are those boxes already (rays at 10^5 entities ran a little
-                    // faster without it: docs/experiments.md, Picking).
+                    // trees' boxes are those boxes already.
                     let frame = &*frame_of(slot, entity)?;
                     let local = r.transformed(&frame.local_from_world);
                     let entry = local.intersect_aabb(&frame.local_bounds)?;

@@ -73,6 +73,21 @@ impl Default for AccelSpritePickingSettings {
 ///
 /// Sprites of equal depth come in entity order here; Bevy's order among them follows its
 /// archetype tables.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use bevy_accel::prelude::*;
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelSpritePickingPlugin))
+///     .add_systems(Startup, |mut commands: Commands| {
+///         commands.spawn(Camera2d);
+///         commands
+///             .spawn(Sprite::from_color(Color::WHITE, Vec2::splat(64.0)))
+///             .observe(|over: On<Pointer<Over>>| info!("over {}", over.entity));
+///     })
+///     .run();
+/// ```
 #[derive(Default)]
 pub struct AccelSpritePickingPlugin;
 
@@ -84,6 +99,7 @@ impl Plugin for AccelSpritePickingPlugin {
                 PreUpdate,
                 update_sprite_hits
                     .in_set(PickingSystems::Backend)
+                    .in_set(super::AccelPickingSystems)
                     .run_if(resource_exists::<AccelTrees>)
                     .run_if(resource_exists::<RayMap>)
                     .run_if(resource_exists::<Assets<Image>>)

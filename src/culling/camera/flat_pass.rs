@@ -1,10 +1,9 @@
 //! The flat pass: every cullable entity once, in table order and in parallel, as Bevy's own
 //! `check_visibility_cpu_culling` goes, for views that see most of the world.
 
-use super::view_walk::ViewWalk;
-use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use super::tree_verdicts::TreeVerdicts;
+use crate::culling::bevy_rules::{ViewFilter, bevy_frustum_test};
 use crate::culling::class_lists::{ClassLists, sort_visible};
-use crate::trees::{AccelTrees, TreeSlot};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
@@ -55,42 +54,6 @@ impl FlatTally {
             core::mem::take(&mut self.tested),
             core::mem::take(&mut self.accepted),
         )
-    }
-}
-
-/// The trees' answers for a flat pass: a walk of the view's frustum kept as sets
-/// ([`super::view_walk::WalkForm::Bits`]), and which entities the trees hold.
-///
-/// Why: Bevy's frustum test (a bounding sphere, then the oriented box, from the entity's
-/// transform) is most of what its loop spends per entity: skipping it (a throwaway build)
-/// cut our flat pass at 1M entities, 100% in view, by a third to a half
-/// (docs/experiments.md, Culling).
-/// The walk settles it for every entity it proves inside or
-/// never reaches, by the same rules the tree path decides by, so the results are Bevy's; the
-/// entities it cannot settle (leaves crossing a plane, entities outside the trees) get
-/// Bevy's test.
-#[derive(Clone, Copy)]
-pub(crate) struct TreeVerdicts<'a> {
-    pub(crate) walk: &'a ViewWalk,
-    pub(crate) trees: &'a AccelTrees,
-}
-
-impl TreeVerdicts<'_> {
-    /// Whether `entity` passes the view's frustum test, if the trees know: yes inside a
-    /// subtree fully in view, no if tracked and in no leaf the walk reached.
-    #[inline]
-    fn frustum_test(&self, entity: Entity) -> Option<bool> {
-        let (slot, tree) = self.trees.location(entity)?;
-        if tree == TreeSlot::Busy {
-            // A walk kept from an earlier frame knows only where a busy mover was.
-            None
-        } else if self.walk.inside_bits.contains(slot) {
-            Some(true)
-        } else if self.walk.crossing_bits.contains(slot) {
-            None
-        } else {
-            Some(false)
-        }
     }
 }
 

@@ -4,8 +4,8 @@
 use super::table_rows::{
     BoundsColumns, DecideColumns, DecideTally, ExactTest, FoundEntity, SlotRows,
 };
-use super::tree_pass::ViewPass;
-use crate::culling::bevy_tests::ViewFilter;
+use super::view_pass::ViewPass;
+use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::ClassLists;
 use crate::culling::slot_order::{LOOKUP_AHEAD, SlotKey, prefetch_entry};
 use bevy::camera::visibility::SetViewVisibility;
@@ -104,9 +104,8 @@ struct Decider<'a, 'q> {
 /// `lists` in part order, so the lists come out as from one thread. Why: the decisions wait on
 /// memory (rows of a few columns for each entity, and for fresh finds each slot's entity and
 /// row hint), and how many misses a core keeps in flight is bounded by its fill buffers; two
-/// cores keep twice as many, as Bevy's own culling loop uses the pool. At 1M entities with 5%
-/// in view this took the still view from about 6x Bevy's speed to about 10x on a 2-core
-/// machine, when decisions still went through entity lookups (docs/experiments.md, Culling).
+/// cores keep twice as many, as Bevy's own culling loop uses the pool (BENCHMARKS.md,
+/// Culling).
 fn decide_list(
     decider: Decider<'_, '_>,
     list: &mut [FoundEntity],

@@ -1,12 +1,13 @@
 //! The camera culling system: trees for the entities they hold, Bevy's tests for the rest.
 
-use super::flat_pass::{CandidateItem, FlatTally, TreeVerdicts, decide_like_bevy, flat_pass};
+use super::flat_pass::{CandidateItem, FlatTally, decide_like_bevy, flat_pass};
 use super::found_pass::{FreshFinds, decide_found};
 use super::table_rows::SlotRows;
-use super::tree_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
+use super::tree_verdicts::TreeVerdicts;
+use super::view_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
 use super::view_walk::{ViewWalk, WalkForm};
 use crate::culling::bevy_rounding::{tree_plane, walk_frustum_for_bevy};
-use crate::culling::bevy_tests::ViewFilter;
+use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::{ClassLists, sort_visible};
 use crate::culling::slot_order::FoundSlots;
 use crate::culling::stats::CullingStats;
@@ -15,6 +16,7 @@ use crate::trees::AccelTrees;
 use bevy::camera::primitives::Frustum;
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, VisibleEntities, VisibleEntityRanges};
 use bevy::ecs::entity::{Entities, EntityHashMap};
+use bevy::ecs::system::SystemParam;
 use bevy::math::Vec4;
 use bevy::prelude::*;
 use bevy::utils::Parallel;
@@ -23,9 +25,9 @@ use std::time::Instant;
 
 /// Above this fraction of entities visible (in the view's previous frame), a flat
 /// pass over all entities beats the tree: a tree hit costs an entity lookup, about twice
-/// what the linear scan spends per entity, so the crossover sits near 20-50% (measured in
-/// `accel-bench culling`: docs/experiments.md, Culling; the lower end is kept, where both cost
-/// about the same).
+/// what the linear scan spends per entity, so the crossover lies between a fifth and a half
+/// of the world in view (`accel-bench culling`; BENCHMARKS.md, Culling); the lower end is
+/// kept, where both cost about the same.
 const FLAT_PASS_ABOVE: f32 = 0.2;
 
 type ViewItem = (
@@ -57,26 +59,56 @@ fn tree_planes(frustum: &Frustum) -> [Vec4; 6] {
     planes
 }
 
+/// What the camera culling reads besides the views and the candidates.
+#[derive(SystemParam)]
+pub(crate) struct CullingInputs<'w, 's> {
+    trees: Res<'w, AccelTrees>,
+    ranges: Option<Res<'w, VisibleEntityRanges>>,
+    untracked: UntrackedEntities<'w, 's>,
+    entities: &'w Entities,
+    bounds: Query<'w, 's, BoundsItem, Without<NoCpuCulling>>,
+}
+
+/// What the camera culling keeps from frame to frame: per view, its last walk and the share
+/// of the world it saw; and buffers reused across frames.
+#[derive(Default)]
+pub(crate) struct CullingMemory {
+    tallies: Parallel<FlatTally>,
+    visible_fraction: EntityHashMap<f32>,
+    found: FoundSlots,
+    walks: EntityHashMap<ViewWalk>,
+    class_lists: ClassLists,
+    part_lists: Vec<ClassLists>,
+    slot_rows: SlotRows,
+    /// [`AccelTrees::index_generation`] at the last frame.
+    index_generation: Option<u64>,
+}
+
 /// Sets `ViewVisibility` and fills `VisibleEntities` for every active view.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn cull_views_with_trees(
-    trees: Res<AccelTrees>,
-    ranges: Option<Res<VisibleEntityRanges>>,
+    inputs: CullingInputs,
     mut views: Query<ViewItem>,
     mut candidates: CandidateQueries,
-    untracked: UntrackedEntities,
     mut stats: ResMut<CullingStats>,
-    mut tallies: Local<Parallel<FlatTally>>,
-    mut visible_fraction: Local<EntityHashMap<f32>>,
-    mut found: Local<FoundSlots>,
-    mut walks: Local<EntityHashMap<ViewWalk>>,
-    mut class_lists: Local<ClassLists>,
-    mut part_lists: Local<Vec<ClassLists>>,
-    mut slot_rows: Local<SlotRows>,
-    mut index_generation: Local<Option<u64>>,
-    entities: &Entities,
-    bounds: Query<BoundsItem, Without<NoCpuCulling>>,
+    mut memory: Local<CullingMemory>,
 ) {
+    let CullingInputs {
+        trees,
+        ranges,
+        untracked,
+        entities,
+        bounds,
+    } = inputs;
+    let CullingMemory {
+        tallies,
+        visible_fraction,
+        found,
+        walks,
+        class_lists,
+        part_lists,
+        slot_rows,
+        index_generation,
+    } = &mut *memory;
     let start = Instant::now();
     let mut s = CullingStats::default();
     let ranges = ranges.as_deref();
@@ -137,7 +169,7 @@ pub(crate) fn cull_views_with_trees(
             });
             let (visible, tested, accepted) = flat_pass(
                 &mut candidates.p0(),
-                &mut tallies,
+                tallies,
                 &mut visible_entities,
                 ViewFilter {
                     view: Some(view),
@@ -173,7 +205,7 @@ pub(crate) fn cull_views_with_trees(
             no_cpu_culling_view,
             deciding: &mut deciding,
             bounds: &bounds,
-            lists: &mut class_lists,
+            lists: class_lists,
             stats: &mut s,
         };
         if no_cpu_culling_view {
@@ -201,10 +233,10 @@ pub(crate) fn cull_views_with_trees(
                 Some(FreshFinds {
                     keys: found.sorted_keys(trees.slot_entities().len()),
                     slot_entities: trees.slot_entities(),
-                    slot_rows: &slot_rows,
+                    slot_rows,
                 })
             };
-            if decide_found(&mut pass, &mut walk.found, fresh, entities, &mut part_lists) > 0 {
+            if decide_found(&mut pass, &mut walk.found, fresh, entities, part_lists) > 0 {
                 slot_rows.remember(&walk.found);
             }
         }

@@ -1,11 +1,10 @@
 //! Deciding entities straight from the columns of Bevy's tables, reached through the row each
 //! entity was last seen in instead of an entity lookup.
 
-use super::tree_pass::{BoundsItem, DecideFilter, DecideItem};
-use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use super::view_pass::{BoundsItem, DecideFilter, DecideItem};
+use crate::culling::bevy_rules::{ViewFilter, bevy_frustum_test};
 use crate::culling::class_lists::ClassLists;
 use crate::culling::slot_order::prefetch_entry;
-use crate::prefetch::{prefetch, prefetch_ptr};
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{NoCpuCulling, RenderLayers, SetViewVisibility, VisibilityClass};
 use bevy::ecs::change_detection::{ContiguousMut, MaybeLocation, Tick};
@@ -13,6 +12,7 @@ use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
 use core::marker::PhantomData;
 use core::panic::Location;
+use spatial_accel::prefetch::{prefetch, prefetch_ptr};
 
 /// Where an entity's components were last found: a table (by `TableId`) and a row in it.
 ///
@@ -421,9 +421,9 @@ impl<'q> BoundsColumns<'q> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tree_pass::{BoundsItem, DecideFilter, DecideItem};
+    use super::super::view_pass::{BoundsItem, DecideFilter, DecideItem};
     use super::{DecideColumns, DecideTally, ExactTest, FoundEntity, RowHint};
-    use crate::culling::bevy_tests::ViewFilter;
+    use crate::culling::bevy_rules::ViewFilter;
     use crate::culling::class_lists::ClassLists;
     use bevy::camera::primitives::Frustum;
     use bevy::camera::visibility::{NoCpuCulling, NoFrustumCulling, RenderLayers};

@@ -5,8 +5,8 @@ use bevy::math::Vec4;
 
 /// What a view's walk of the trees found, with the frustum it walked.
 ///
-/// Why keep it: the walk and the slot ordering after it were about a third of the tree path
-/// at 1M entities, 5% in view (docs/experiments.md, Culling), and when neither the view's
+/// Why keep it: the walk and the slot ordering after it are a large part of the tree path
+/// (BENCHMARKS.md, Culling), and when neither the view's
 /// frustum nor the trees changed since the last frame they would find the same entities in
 /// the same order. Only the walk is kept: every entity is still decided each frame (its
 /// visibility, layers and range can change without the trees changing), as Bevy requires

@@ -48,6 +48,7 @@ pub(super) fn replace_light_culling(app: &mut App) {
         )
             .chain()
             .in_set(SimulationLightSystems::CheckLightVisibility)
+            .in_set(super::AccelCullingSystems)
             .after(VisibilitySystems::CalculateBounds)
             .after(TransformSystems::Propagate)
             .after(SimulationLightSystems::UpdateLightFrusta)

@@ -134,9 +134,9 @@ fn classify_for_lists(
     if !in_range && lists.cover_every_direction {
         // Across the range's boundary a cube's six faces prune no subtree and cannot hold a
         // box (that needs the range), yet classifying them costs six frustum tests per node,
-        // which made moving point lights much slower (docs/experiments.md, Light culling).
-        // They are classified once in range; boxes that never get there keep every face
-        // undecided and get Bevy's full tests. (A spot light's frustum does prune, so it is classified everywhere.)
+        // a cost moving point lights would pay at every node. They are classified once in
+        // range; boxes that never get there keep every face undecided and get Bevy's full
+        // tests. (A spot light's frustum does prune, so it is classified everywhere.)
         return c;
     }
     let mut todo = undecided;

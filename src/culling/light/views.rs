@@ -10,7 +10,7 @@
 
 use super::verdicts::{CasterVerdicts, LightLists, MAX_SETTLED_LISTS, unpack};
 use super::walks::{LightCandidates, ViewKey, light_planes};
-use crate::culling::bevy_tests::ViewFilter;
+use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::sort_visible;
 use crate::culling::stats::CullingStats;
 use crate::culling::untracked::UntrackedEntities;

@@ -42,17 +42,16 @@ pub(super) fn light_sphere_may_reach(sphere: &Sphere, b: &spatial_accel::Aabb) -
 }
 
 /// Above this fraction of the tracked entities found by a light view's walk, the view is
-/// decided by a flat parallel pass instead. First an estimate from the light-culling
-/// benchmark (now `accel-bench lights`) of a candidate's cost on the tree path (one thread,
-/// one lookup each) against a caster's in Bevy's loop (two threads). Once both paths took the
-/// walk's masks (`verdicts`), the bench's 100k directional view (about 69% found) measured
-/// about the same on either path, and its 1M one (2.6%) faster on the tree path, so the
-/// crossover lies between (the figures: docs/experiments.md, Light culling).
+/// decided by a flat parallel pass instead: a candidate's cost on the tree path (one thread,
+/// one lookup each) against a caster's in Bevy's loop (the compute pool), both taking the
+/// walk's masks (`verdicts`). A directional view finding most of the world costs about the
+/// same on either path and one finding a few percent is faster on the tree path, so the
+/// crossover lies between (`accel-bench lights`; BENCHMARKS.md, Light culling).
 const FLAT_LIGHT_VIEW_ABOVE: f32 = 1.0 / 3.0;
 
 /// A light view's last walk, kept for the next frame. Why: in a still scene a light's walk
-/// finds the same entities every frame (perf put about 40% of the point-light pass at 1M
-/// casters in the walk). Only the walk is kept; the entities are decided again each frame, as
+/// finds the same entities every frame, and the walk is a large part of a light's pass. Only
+/// the walk is kept; the entities are decided again each frame, as
 /// visibility, layers and ranges change without the trees.
 struct KeptWalk {
     /// What the walk was of, bit for bit (sphere, planes).
@@ -146,8 +145,7 @@ impl LightCandidates {
             return;
         }
         // A view that saw most of the world last frame takes the flat pass again without
-        // walking: a walk of nearly every node would be thrown away (at 100k casters it cost
-        // the flat pass half again).
+        // walking: a walk of nearly every node would be thrown away.
         self.skipped = self
             .fractions
             .get(&view)

@@ -1,7 +1,7 @@
 //! The queries that decide a view's entities, and deciding one entity through them: Bevy's
 //! per-entity rules, with its frustum test.
 
-use crate::culling::bevy_tests::{ViewFilter, bevy_frustum_test};
+use crate::culling::bevy_rules::{ViewFilter, bevy_frustum_test};
 use crate::culling::class_lists::ClassLists;
 use crate::culling::stats::CullingStats;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};

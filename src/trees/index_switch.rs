@@ -8,7 +8,8 @@
 //! date (one update, insertion or removal each, found by comparing boxes, so no edit path has
 //! to log anything) and the structures are swapped.
 
-use super::{AccelTrees, TreeSlot, refusal};
+use super::placing::refusal;
+use super::{AccelTrees, TreeSlot};
 use crate::index::IndexChoice;
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures::check_ready};

@@ -1,6 +1,8 @@
-//! The per-frame upkeep of whichever index holds the moving entities.
+//! The trees' upkeep after the sync's edits: the static tree's builds landed or started,
+//! and whichever index holds the moving entities kept consistent and improved.
 
-use super::bvh_backend::{RayTraffic, dynamic_config, maintain_bvh};
+use super::bvh_upkeep::{RayTraffic, maintain_bvh};
+use crate::index::dynamic_config;
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::AccelTrees;
@@ -37,5 +39,29 @@ pub(crate) fn maintain_index(
             stats.last_upkeep = dynamic.maintain(settings.upkeep_budget());
         }
     }
+    stats.maintain_time += start.elapsed();
+}
+
+/// Brings the static tree up to date with the static set: lands a build finished off the
+/// frame, or starts one for the entities that came or went (in the frame for a first load
+/// or a small set, see [`AccelSettings::static_rebuild_in_frame_up_to`]). Static newcomers
+/// that no tree holds yet wait in the dynamic index, so it runs before the index's upkeep.
+pub(crate) fn land_static_builds(
+    settings: Res<AccelSettings>,
+    mut trees: ResMut<AccelTrees>,
+    mut stats: ResMut<AccelStats>,
+) {
+    let start = Instant::now();
+    // A mutable access marks `AccelTrees` changed: only a new tree does.
+    let tree_state = trees.bypass_change_detection();
+    let rebuilt = tree_state.advance_static(
+        settings.static_rebuild_in_frame_up_to,
+        settings.static_build,
+    );
+    if rebuilt {
+        tree_state.note_index_changed();
+        trees.set_changed();
+    }
+    stats.static_rebuilt = rebuilt;
     stats.maintain_time = start.elapsed();
 }

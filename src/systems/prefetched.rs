@@ -1,52 +1,5 @@
-//! A cache prefetch hint for rows read a little later.
-
-/// Asks for the cache line holding `value` ahead of its use: a hint only, with no effect off
-/// x86-64. Used where a loop's reads are scattered in a way the hardware prefetcher cannot
-/// predict but the loop knows its next addresses.
-#[cfg_attr(not(feature = "culling"), allow(dead_code))]
-#[inline(always)]
-pub(crate) fn prefetch<T>(value: &T) {
-    prefetch_address((value as *const T).cast::<i8>());
-}
-
-/// [`prefetch`] for a place known only by its address; the address need not be valid.
-#[cfg_attr(not(feature = "culling"), allow(dead_code))]
-#[inline(always)]
-pub(crate) fn prefetch_ptr<T>(address: *const T) {
-    prefetch_address(address.cast::<i8>());
-}
-
-/// Asks for every cache line `value` spans (a 64-byte component at a 16-byte alignment
-/// straddles two lines three times in four).
-#[inline(always)]
-pub(crate) fn prefetch_all<T>(value: &T) {
-    let start = (value as *const T).cast::<i8>();
-    let size = core::mem::size_of::<T>();
-    // Every 64th byte, and the last: together they touch each line the value spans. A value of
-    // whole lines aligned to them (the slot record) needs no last-byte hint; decided at
-    // compile time.
-    let whole_lines = size.is_multiple_of(64) && core::mem::align_of::<T>() >= 64;
-    let last = if whole_lines {
-        None
-    } else {
-        size.checked_sub(1)
-    };
-    for offset in (0..size).step_by(64).chain(last) {
-        prefetch_address(start.wrapping_add(offset));
-    }
-}
-
-#[inline(always)]
-fn prefetch_address(address: *const i8) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: prefetching is a hint that never faults, whatever the address.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>(address) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = address;
-}
+//! A loop over scattered items with two prefetch stages ahead of it: the sync's walk over
+//! the moved entities.
 
 /// The distance between the stages of [`for_each_prefetched_in_two_stages`]: a few items'
 /// processing covers one memory latency, and a larger window only holds more lines in L1.
@@ -72,7 +25,7 @@ pub(crate) fn for_each_prefetched_in_two_stages<S, T>(
     // `for_each`, not a `for` loop: it runs the iterator's `fold`, which Bevy's query iterator
     // specialises into a tight loop per table. Pulled item by item through `next`, the
     // change-detection scan over every dynamic entity ran clearly slower when nothing moved
-    // (A/B on the sync bench's idle row; docs/experiments.md, Plugin sync).
+    // (the sync bench's idle row; BENCHMARKS.md, Plugin sync).
     items.for_each(|item| {
         far(state, &item);
         // The slot the new item takes holds the item `WINDOW` places before it: now due.

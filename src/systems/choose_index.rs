@@ -1,0 +1,119 @@
+//! Which structure holds the moving entities this frame: [`IndexChoice::Automatic`] resolved
+//! by the core's [`IndexAdvisor`] from the last frames' workload, and a switch to another
+//! structure started or landed.
+
+use super::membership::RejectedEntities;
+use crate::index::{AutomaticIndexStats, IndexChoice};
+use crate::settings::AccelSettings;
+use crate::stats::AccelStats;
+use crate::trees::AccelTrees;
+use bevy::prelude::*;
+use core::time::Duration;
+use spatial_accel::query::{IndexAdvisor, IndexWorkload};
+use std::time::Instant;
+
+/// The advisor behind [`IndexChoice::Automatic`].
+#[derive(Resource, Default)]
+pub(crate) struct AutomaticIndex(IndexAdvisor);
+
+impl AutomaticIndex {
+    /// The concrete structure `choice` asks for now.
+    pub(crate) fn resolve(&self, choice: IndexChoice) -> IndexChoice {
+        match choice {
+            IndexChoice::Automatic => IndexChoice::of_kind(self.0.current()),
+            fixed => fixed,
+        }
+    }
+}
+
+/// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
+/// only while the choice is automatic, so a fixed index pays nothing for it.
+pub(crate) fn advise_index(
+    settings: Res<AccelSettings>,
+    mut automatic: ResMut<AutomaticIndex>,
+    mut stats: ResMut<AccelStats>,
+) {
+    if settings.index != IndexChoice::Automatic {
+        stats.automatic = None;
+        return;
+    }
+    let advice = settings.automatic.advice();
+    if *automatic.0.advice() != advice {
+        automatic.0.set_advice(advice);
+    }
+    let kind = automatic.0.observe(IndexWorkload {
+        entries: stats.dynamic_entities,
+        // The index's own movers: the busy movers' moves are no work of the index's.
+        moved: stats.moved - stats.busy_moved,
+        rays: stats.rays_per_frame,
+    });
+    stats.automatic = Some(AutomaticIndexStats {
+        recommended: IndexChoice::of_kind(kind),
+        moved_share: automatic.0.moved_share(),
+        rays_per_frame: automatic.0.rays_per_frame(),
+    });
+}
+
+/// What the index switch did this frame, for the sync's counts.
+#[derive(Resource, Default)]
+pub(crate) struct IndexSwitchReport {
+    /// Dynamic entities moved into a new structure that landed this frame.
+    pub(crate) moved: usize,
+    /// Entities the new structure refused: they are out of the trees.
+    pub(crate) refused: usize,
+    /// Time the switch took this frame (counted in the sync's time).
+    pub(crate) time: Duration,
+}
+
+/// Moves the dynamic entities towards the structure the settings (or the automatic choice)
+/// ask for: at once for a few, else by a fill off the frame that lands in a later frame
+/// ([`AccelSettings::index_switch_in_frame_up_to`]).
+pub(crate) fn switch_index(
+    settings: Res<AccelSettings>,
+    automatic: Res<AutomaticIndex>,
+    mut trees: ResMut<AccelTrees>,
+    mut rejected: ResMut<RejectedEntities>,
+    mut report: ResMut<IndexSwitchReport>,
+) {
+    let start = Instant::now();
+    let target = automatic.resolve(settings.index);
+    let tree_state = trees.bypass_change_detection();
+    let landed = tree_state.advance_index_switch(target, settings.index_switch_in_frame_up_to);
+    let (mut moved, mut refused) = (0, 0);
+    if let Some(landed) = landed {
+        for (entity, why) in landed.refused.iter().copied() {
+            rejected.reject(entity, why);
+        }
+        moved = landed.moved;
+        refused = landed.refused.len();
+        tree_state.note_index_changed();
+        trees.set_changed();
+    }
+    *report = IndexSwitchReport {
+        moved,
+        refused,
+        time: start.elapsed(),
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::index::AutomaticIndexSettings;
+    use spatial_accel::query::IndexAdvice;
+
+    #[test]
+    fn automatic_resolves_to_the_advisors_structure_and_fixed_choices_to_themselves() {
+        let auto = AutomaticIndex::default();
+        assert_eq!(auto.resolve(IndexChoice::Automatic), IndexChoice::Bvh);
+        for choice in IndexChoice::ALL {
+            if choice != IndexChoice::Automatic {
+                assert_eq!(auto.resolve(choice), choice);
+            }
+        }
+        assert_eq!(
+            AutomaticIndexSettings::default().advice(),
+            IndexAdvice::default()
+        );
+    }
+}

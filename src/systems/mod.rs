@@ -1,0 +1,82 @@
+//! The plugin's systems, in `PostUpdate`, in the order a frame runs them (each set after the
+//! one before, all after transform propagation and bounds calculation, and before Bevy's
+//! visibility checks, so that culling sees this frame's trees):
+//!
+//! 1. [`AccelSystems::ChooseIndex`] (`choose_index`): the automatic choice reads the last
+//!    frames' workload; a switch of the movers' index starts, or lands when its fill is done.
+//! 2. [`AccelSystems::Sync`] (`sync`, with `membership` and `prefetched`): entities that
+//!    appeared, changed membership, moved or left are placed in the trees or taken out; busy
+//!    movers that went quiet go back into the index.
+//! 3. [`AccelSystems::Maintain`] (`maintain`, `bvh_upkeep`): the static tree's builds land
+//!    or start; the dynamic index is refit and improved within its budget.
+//! 4. [`AccelSystems::Stats`] (`publish_stats`): [`AccelStats`](crate::AccelStats) and the
+//!    diagnostics.
+
+mod bvh_upkeep;
+mod choose_index;
+mod maintain;
+mod membership;
+mod prefetched;
+mod publish_stats;
+mod sync;
+
+pub(crate) use membership::RejectedEntities;
+
+use crate::settings::AccelSettings;
+use bevy::camera::visibility::VisibilitySystems;
+use bevy::prelude::*;
+use bevy::transform::TransformSystems;
+
+/// The plugin's system sets, in `PostUpdate`, in this order, after transform propagation and
+/// bounds calculation and before visibility checks (so culling sees this frame's trees).
+/// Read [`AccelTrees`](crate::AccelTrees) after [`AccelSystems::Sync`] (or after
+/// [`AccelSystems::Stats`] for the whole frame's state).
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum AccelSystems {
+    /// The structure that holds the moving entities chosen, and a switch to another one
+    /// started or landed.
+    ChooseIndex,
+    /// Entities inserted, moved and removed.
+    Sync,
+    /// The static tree's builds landed; the dynamic index refit, optimised, and rebuilt when
+    /// its quality decays.
+    Maintain,
+    /// Statistics and diagnostics published.
+    Stats,
+}
+
+/// Adds the systems, their sets and the resources they keep to `app`.
+pub(crate) fn add_tree_systems(app: &mut App) {
+    app.init_resource::<choose_index::AutomaticIndex>()
+        .init_resource::<choose_index::IndexSwitchReport>()
+        .init_resource::<membership::PendingMembership>()
+        .init_resource::<membership::RejectedEntities>()
+        .configure_sets(
+            PostUpdate,
+            (
+                AccelSystems::ChooseIndex,
+                AccelSystems::Sync,
+                AccelSystems::Maintain,
+                AccelSystems::Stats,
+            )
+                .chain()
+                .after(TransformSystems::Propagate)
+                .after(VisibilitySystems::CalculateBounds)
+                .before(VisibilitySystems::CheckVisibility)
+                .run_if(|s: Res<AccelSettings>| s.enabled),
+        )
+        .add_systems(
+            PostUpdate,
+            (
+                (choose_index::advise_index, choose_index::switch_index)
+                    .chain()
+                    .in_set(AccelSystems::ChooseIndex),
+                sync::sync_trees.in_set(AccelSystems::Sync),
+                (maintain::land_static_builds, maintain::maintain_index)
+                    .chain()
+                    .in_set(AccelSystems::Maintain),
+                publish_stats::publish_stats.in_set(AccelSystems::Stats),
+            ),
+        );
+    membership::add_membership_observers(app);
+}

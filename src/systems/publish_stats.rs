@@ -1,0 +1,38 @@
+//! The trees' figures published: [`AccelStats`] and Bevy diagnostics.
+
+use crate::stats::AccelStats;
+use crate::trees::AccelTrees;
+use bevy::diagnostic::Diagnostics;
+use bevy::prelude::*;
+
+/// Copies tree shape into the stats and the diagnostics; every figure is O(1) to read (the
+/// depth is the root's stored height: a walk of a large tree, even once a second, would be a
+/// frame hitch).
+pub(crate) fn publish_stats(
+    trees: Res<AccelTrees>,
+    mut stats: ResMut<AccelStats>,
+    mut diagnostics: Diagnostics,
+) {
+    if trees.is_changed() {
+        let index = trees.query();
+        stats.busy_movers = index.busy_movers().len();
+        stats.dynamic_entities = index.dynamic_len() + stats.busy_movers;
+        stats.static_entities = trees.static_len();
+        stats.static_waiting = trees.static_waiting_len();
+        stats.static_build_in_flight = trees.static_build_in_flight();
+        stats.index = index.choice();
+        stats.dynamic_index = index.dynamic_stats();
+    }
+    let s = &*stats;
+    diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
+    diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || {
+        s.maintain_time.as_secs_f64() * 1e3
+    });
+    diagnostics.add_measurement(&AccelStats::ENTITIES, || {
+        (s.dynamic_entities + s.static_entities) as f64
+    });
+    diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_index.depth as f64);
+    if let Some(ratio) = s.dynamic_index.quality_ratio {
+        diagnostics.add_measurement(&AccelStats::QUALITY_RATIO, || ratio as f64);
+    }
+}

@@ -1,0 +1,227 @@
+//! The sync: entities placed in the trees, moved in them and taken out, so that the trees
+//! hold exactly the tracked entities with their current world boxes.
+//!
+//! Lifecycle changes (an `Aabb` added or removed, a marker added or removed, a despawn) are
+//! caught by observers as they happen and queued (`membership`); motion is caught by a
+//! `Changed` query over dynamic entities only. So a frame in which nothing was spawned,
+//! despawned or moved scans no static entity and touches no tree.
+
+use super::choose_index::IndexSwitchReport;
+use super::membership::{MembershipQuery, PendingMembership, RejectedEntities};
+use super::prefetched::for_each_prefetched_in_two_stages;
+use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
+use crate::settings::AccelSettings;
+use crate::stats::AccelStats;
+use crate::trees::{AccelTrees, Placed, placement};
+use bevy::camera::primitives::Aabb as BevyAabb;
+use bevy::prelude::*;
+use spatial_accel::prefetch::prefetch_all;
+use std::time::Instant;
+
+type MovedQuery<'w, 's, StaticFilter> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static BevyAabb,
+        &'static GlobalTransform,
+        Has<AccelTracked>,
+    ),
+    (
+        Or<(Changed<GlobalTransform>, Changed<BevyAabb>)>,
+        StaticFilter,
+        Without<AccelIgnore>,
+    ),
+>;
+
+/// Inserts, moves and removes entities so the trees hold exactly the tracked entities with
+/// their current world boxes; puts busy movers that went quiet back into the dynamic index.
+// A system's parameters are its dependencies; bundling them would only hide them.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sync_trees(
+    settings: Res<AccelSettings>,
+    mut trees: ResMut<AccelTrees>,
+    mut pending: ResMut<PendingMembership>,
+    mut rejected: ResMut<RejectedEntities>,
+    mut stats: ResMut<AccelStats>,
+    switch: Res<IndexSwitchReport>,
+    membership: MembershipQuery,
+    moved: MovedQuery<Without<AccelStatic>>,
+    moved_static: MovedQuery<With<AccelStatic>>,
+) {
+    let start = Instant::now();
+    let mut counts = SyncCounts {
+        // Every dynamic entity moved to a new index that landed this frame: as many updates,
+        // for the readers.
+        updated: switch.moved,
+        removed: switch.refused,
+        ..default()
+    };
+    let wanted = |tracked_marker: bool| tracked_marker || !settings.require_marker;
+    // `AccelTrees` is marked changed below only if the trees changed, so that readers can
+    // skip work in still frames (the culling keeps a view's walk while neither its frustum
+    // nor the trees change).
+    let tree_state = trees.bypass_change_detection();
+    tree_state.clear_assigned_slots();
+    let busy = &settings.busy_movers;
+    let busy_on = busy.wanted(tree_state.busy_enabled(), stats.moved, stats.rays_per_frame);
+    tree_state.begin_busy_frame(busy_on, busy.transfers_per_frame);
+
+    for entity in pending.0.drain() {
+        let desired =
+            membership
+                .get(entity)
+                .ok()
+                .and_then(|(aabb, gt, is_static, ignored, marked)| {
+                    (!ignored && wanted(marked)).then_some((aabb?, gt?, is_static))
+                });
+        match desired {
+            Some((aabb, gt, is_static)) => place_checked(
+                tree_state,
+                &mut rejected,
+                entity,
+                aabb,
+                gt,
+                is_static,
+                &mut counts,
+            ),
+            None => {
+                rejected.0.remove(&entity);
+                counts.removed += tree_state.remove(entity) as usize;
+            }
+        }
+    }
+    // The moved entities are scattered through their tables (only some moved): each one's
+    // `GlobalTransform` and `Aabb` rows are asked for well ahead, and once those are on their
+    // way, its slot and tree leaf (found through the entity) a few entities ahead.
+    type Moved<'a> = (Entity, &'a BevyAabb, &'a GlobalTransform, bool);
+    type State<'a> = (
+        &'a mut AccelTrees,
+        &'a mut RejectedEntities,
+        &'a mut SyncCounts,
+    );
+    let rows_ahead = |state: &State, &(entity, aabb, gt, _): &Moved| {
+        prefetch_all(gt);
+        prefetch_all(aabb);
+        state.0.prefetch_record(entity);
+    };
+    let slot_ahead = |state: &State, &(entity, ..): &Moved| {
+        state.0.prefetch_placement(entity);
+    };
+    let place_moved = |is_static: bool| {
+        move |(trees, rejected, counts): &mut State, (entity, aabb, gt, marked): Moved| {
+            if wanted(marked) {
+                place_checked(trees, rejected, entity, aabb, gt, is_static, counts);
+            }
+        }
+    };
+    let mut state = (&mut *tree_state, &mut *rejected, &mut counts);
+    for_each_prefetched_in_two_stages(
+        moved.iter(),
+        &mut state,
+        rows_ahead,
+        slot_ahead,
+        place_moved(false),
+    );
+    if settings.watch_static_motion {
+        // A static entity that moved anyway (an editor, a level change) gets its new box in a
+        // rebuilt static tree rather than a stale one.
+        for_each_prefetched_in_two_stages(
+            moved_static.iter(),
+            &mut state,
+            rows_ahead,
+            slot_ahead,
+            place_moved(true),
+        );
+    }
+    let mut dropped = Vec::new();
+    counts.updated += tree_state.settle_quiet_busy_movers(
+        busy,
+        |entity| {
+            let (aabb, gt, ..) = membership.get(entity).ok()?;
+            let at = placement(aabb?, gt?).ok()?;
+            Some((at.world, at.frame()))
+        },
+        &mut dropped,
+    );
+    for entity in dropped {
+        counts.removed += 1;
+        rejected.reject(entity, "the dynamic index refused it back");
+    }
+    // The index switch's own edits were marked by its system.
+    let index_edits = counts.inserted + counts.removed + counts.updated
+        - counts.busy_moved
+        - switch.moved
+        - switch.refused;
+    if index_edits > 0 {
+        tree_state.note_index_changed();
+    }
+    if counts.inserted + counts.updated + counts.removed > 0 {
+        trees.set_changed();
+    }
+
+    stats.inserted = counts.inserted;
+    stats.updated = counts.updated;
+    stats.removed = counts.removed;
+    stats.moved = counts.moved;
+    stats.busy_moved = counts.busy_moved;
+    stats.rejected = rejected.0.len();
+    stats.sync_time = switch.time + start.elapsed();
+}
+
+#[derive(Default)]
+struct SyncCounts {
+    inserted: usize,
+    updated: usize,
+    removed: usize,
+    moved: usize,
+    busy_moved: usize,
+}
+
+fn place_checked(
+    trees: &mut AccelTrees,
+    rejected: &mut RejectedEntities,
+    entity: Entity,
+    aabb: &BevyAabb,
+    gt: &GlobalTransform,
+    is_static: bool,
+    counts: &mut SyncCounts,
+) {
+    let at = match placement(aabb, gt) {
+        Ok(at) => at,
+        Err(why) => {
+            counts.removed += trees.remove(entity) as usize;
+            rejected.reject(entity, why);
+            return;
+        }
+    };
+    // A busy mover needs only its box: its own space is not kept (see `trees::busy_movers`).
+    let busy = if is_static {
+        None
+    } else {
+        trees.move_busy(entity, at.world)
+    };
+    counts.busy_moved += usize::from(busy == Some(Placed::Moved));
+    match busy.unwrap_or_else(|| trees.place(entity, at.world, at.frame(), is_static)) {
+        // Reported like a bad transform: once, until the entity fits again.
+        Placed::Refused(why) => rejected.reject(entity, why),
+        Placed::Evicted(why) => {
+            counts.removed += 1;
+            rejected.reject(entity, why);
+        }
+        placed => {
+            // The set is almost always empty: skip hashing every moved entity into it.
+            if !rejected.0.is_empty() && rejected.0.remove(&entity) {
+                info!("bevy_accel: entity {entity} is valid again and back in the trees");
+            }
+            match placed {
+                Placed::Inserted => counts.inserted += 1,
+                Placed::Moved => counts.updated += 1,
+                Placed::Unchanged | Placed::Same | Placed::Refused(_) | Placed::Evicted(_) => {}
+            }
+            if !is_static && matches!(placed, Placed::Moved | Placed::Unchanged) {
+                counts.moved += 1;
+            }
+        }
+    }
+}
