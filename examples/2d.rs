@@ -18,14 +18,10 @@ use bevy::input::mouse::MouseWheel;
 use bevy::picking::pointer::{PointerId, PointerInput};
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use bevy_accel::AccelCullingPlugin;
-use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
-use bevy_accel::panel::AccelPanelPlugin;
-use bevy_accel::picking::{AccelPickingPlugin, AccelSpritePickingPlugin};
 use bevy_accel::prelude::*;
 
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 const SPRITES: usize = 20_000;
 /// Half the side of the square field the sprites drift over.
@@ -53,17 +49,15 @@ fn main() -> AppExit {
         .add_plugins((
             DefaultPlugins,
             FrameTimeDiagnosticsPlugin::default(),
-            AccelPlugin {
-                settings: AccelSettings {
-                    index: IndexChoice::Quadtree,
-                    ..default()
-                },
-            },
-            AccelCullingPlugin,
-            AccelPickingPlugin,
-            AccelSpritePickingPlugin,
-            AccelOverlaysPlugin,
-            AccelPanelPlugin,
+            AccelPlugins
+                .build()
+                .set(AccelPlugin {
+                    settings: AccelSettings {
+                        index: IndexChoice::Quadtree,
+                        ..default()
+                    },
+                })
+                .disable::<AccelPreviewPlugin>(),
         ))
         // Bevy's own sprite backend comes with its `sprite_picking` feature and cannot be
         // removed; with markers required and none given it reports nothing, and the trees'

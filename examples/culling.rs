@@ -13,14 +13,10 @@
 use bevy::camera::Viewport;
 use bevy::camera::visibility::{RenderLayers, VisibleEntities};
 use bevy::prelude::*;
-use bevy_accel::AccelCullingPlugin;
-use bevy_accel::overlays::{
-    AccelGizmos, AccelOverlaySettings, AccelOverlayStats, AccelOverlaysPlugin,
-};
 use bevy_accel::prelude::*;
 
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 const SIDE: i32 = 60;
 /// The render layer only the inset sees: the overlays are drawn there.
@@ -40,12 +36,16 @@ struct Paused(bool);
 
 fn main() -> AppExit {
     App::new()
-        .add_plugins((
-            DefaultPlugins,
-            AccelPlugin::default(),
-            AccelCullingPlugin,
-            AccelOverlaysPlugin,
-        ))
+        .add_plugins(DefaultPlugins)
+        // The trees, culling and the overlays that show it.
+        .add_plugins(
+            AccelPlugins
+                .build()
+                .disable::<AccelPickingPlugin>()
+                .disable::<AccelSpritePickingPlugin>()
+                .disable::<AccelPreviewPlugin>()
+                .disable::<AccelPanelPlugin>(),
+        )
         .init_resource::<Paused>()
         .add_systems(Startup, (setup, overlays_in_the_inset_only).chain())
         .add_systems(Update, (bob, turn, keys, screenshot_and_exit))

@@ -1,7 +1,7 @@
 //! Click to select, through `AccelPickingPlugin`: a few hundred meshes of several kinds, and a
-//! row of Stanford bunnies loaded from `assets/bunny.obj` behind them; a click highlights the
-//! mesh under the pointer and logs the entity, the triangle and the hit point, all found
-//! through the trees and the per-mesh BVHs.
+//! row of Stanford bunnies (`assets/bunny.glb`, through Bevy's glTF loader) behind them; a
+//! click highlights the mesh under the pointer and logs the entity, the triangle and the hit
+//! point, all found through the trees and the per-mesh BVHs.
 //!
 //! `ACCEL_SCREENSHOT=out.png cargo run --example picking` clicks a known cube (a synthetic
 //! press and release at its screen position), saves a frame and exits, failing unless that
@@ -12,13 +12,10 @@ use bevy::picking::pointer::PointerInput;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy::window::PrimaryWindow;
-use bevy_accel::picking::{AccelHitExtra, AccelPickingPlugin};
 use bevy_accel::prelude::*;
 
-#[path = "support/obj_loader.rs"]
-mod obj_loader;
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 #[derive(Resource)]
 struct Palette {
@@ -35,8 +32,17 @@ struct Target(Entity, Vec3);
 
 fn main() -> AppExit {
     App::new()
-        .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelPickingPlugin))
-        .init_asset_loader::<obj_loader::ObjLoader>()
+        .add_plugins(DefaultPlugins)
+        // The trees and the picking backend; this example shows nothing else.
+        .add_plugins(
+            AccelPlugins
+                .build()
+                .disable::<AccelCullingPlugin>()
+                .disable::<AccelSpritePickingPlugin>()
+                .disable::<AccelOverlaysPlugin>()
+                .disable::<AccelPreviewPlugin>()
+                .disable::<AccelPanelPlugin>(),
+        )
         .init_resource::<Selected>()
         .add_systems(Startup, setup)
         .add_systems(Update, synthetic_click_and_screenshot)
@@ -78,7 +84,13 @@ fn setup(
         }
     }
     // The model is about ten units across, standing on its y = 0 base.
-    let bunny: Handle<Mesh> = assets.load("bunny.obj");
+    let bunny: Handle<Mesh> = assets.load(
+        GltfAssetLabel::Primitive {
+            mesh: 0,
+            primitive: 0,
+        }
+        .from_asset("bunny.glb"),
+    );
     for i in -3i32..=3 {
         commands
             .spawn((

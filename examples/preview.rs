@@ -1,7 +1,8 @@
-//! The ray-traced preview (`AccelPreviewPlugin`): a still scene of Stanford bunnies (from
-//! `assets/bunny.obj`), boxes and spheres on a floor, under a sun and a point light, traced
-//! on the CPU through the same trees and mesh BVHs that picking uses. The image refines
-//! while nothing moves and starts over when the camera or the scene changes.
+//! The ray-traced preview (`AccelPreviewPlugin`): a still scene of Stanford bunnies
+//! (`assets/bunny.glb`, through Bevy's glTF loader), boxes and spheres on a floor, under a sun
+//! and a point light, traced on the CPU through the same trees and mesh BVHs that picking
+//! uses. The image refines while nothing moves and starts over when the camera or the scene
+//! changes.
 //!
 //! Keys: `F2` the preview on and off, `M` the next view (shaded, ambient occlusion, path
 //! traced, normals, depth, traversal cost, entity ids, leaf depth), `C` over the view or in
@@ -16,17 +17,10 @@
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use bevy_accel::panel::AccelPanelPlugin;
-use bevy_accel::picking::AccelPickingPlugin;
 use bevy_accel::prelude::*;
-use bevy_accel::preview::{
-    AccelPreviewMode, AccelPreviewPlugin, AccelPreviewSettings, AccelPreviewStats, PreviewPlacement,
-};
 
-#[path = "support/obj_loader.rs"]
-mod obj_loader;
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 #[derive(Component)]
 struct Orbit {
@@ -46,12 +40,12 @@ fn main() -> AppExit {
         .add_plugins((
             DefaultPlugins,
             FrameTimeDiagnosticsPlugin::default(),
-            AccelPlugin::default(),
-            AccelPickingPlugin,
-            AccelPreviewPlugin,
-            AccelPanelPlugin,
+            AccelPlugins
+                .build()
+                .disable::<AccelCullingPlugin>()
+                .disable::<AccelSpritePickingPlugin>()
+                .disable::<AccelOverlaysPlugin>(),
         ))
-        .init_asset_loader::<obj_loader::ObjLoader>()
         .insert_resource(ClearColor(Color::BLACK))
         .insert_resource(AccelPreviewSettings {
             enabled: preview_on,
@@ -60,7 +54,7 @@ fn main() -> AppExit {
             frame_budget_ms: if shot { 10_000.0 } else { 12.0 },
             ..default()
         })
-        .insert_resource(bevy_accel::panel::AccelPanelSettings {
+        .insert_resource(AccelPanelSettings {
             // The shots compare images; the panel would cover part of them.
             open: !shot,
             ..default()
@@ -76,7 +70,13 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    let bunny: Handle<Mesh> = assets.load("bunny.obj");
+    let bunny: Handle<Mesh> = assets.load(
+        GltfAssetLabel::Primitive {
+            mesh: 0,
+            primitive: 0,
+        }
+        .from_asset("bunny.glb"),
+    );
     let colours = [
         Color::srgb(0.8, 0.3, 0.25),
         Color::srgb(0.3, 0.7, 0.35),

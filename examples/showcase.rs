@@ -24,15 +24,10 @@ use bevy::picking::hover::HoverMap;
 use bevy::picking::pointer::{PointerId, PointerInput};
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use bevy_accel::AccelCullingPlugin;
-use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
-use bevy_accel::panel::AccelPanelPlugin;
-use bevy_accel::picking::AccelPickingPlugin;
 use bevy_accel::prelude::*;
-use bevy_accel::preview::AccelPreviewPlugin;
 
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 const GRID: i32 = 40;
 
@@ -67,18 +62,13 @@ struct Target(Entity, Vec3);
 
 fn main() -> AppExit {
     let mut app = App::new();
-    app.add_plugins((
-        DefaultPlugins,
-        FrameTimeDiagnosticsPlugin::default(),
-        AccelPlugin::default(),
-        AccelPickingPlugin,
-        AccelOverlaysPlugin,
-        AccelPanelPlugin,
-        AccelPreviewPlugin,
-    ));
-    if std::env::var_os("ACCEL_BEVY_CULLING").is_none() {
-        app.add_plugins(AccelCullingPlugin);
+    // Every service on the cubes (there are no sprites to pick); with `ACCEL_BEVY_CULLING`,
+    // Bevy's own culling instead of the trees', to compare the two frames.
+    let mut accel = AccelPlugins.build().disable::<AccelSpritePickingPlugin>();
+    if std::env::var_os("ACCEL_BEVY_CULLING").is_some() {
+        accel = accel.disable::<AccelCullingPlugin>();
     }
+    app.add_plugins((DefaultPlugins, FrameTimeDiagnosticsPlugin::default(), accel));
     if std::env::var("ACCEL_OVERLAYS").is_ok_and(|v| v == "all") {
         app.insert_resource(AccelOverlaySettings {
             dynamic_nodes: true,

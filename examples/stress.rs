@@ -13,13 +13,10 @@
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use bevy_accel::AccelCullingPlugin;
-use bevy_accel::culling::CullingStats;
-use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 use bevy_accel::prelude::*;
 
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 #[derive(Component)]
 struct Wobble {
@@ -50,9 +47,14 @@ fn main() -> AppExit {
         .add_plugins((
             DefaultPlugins,
             FrameTimeDiagnosticsPlugin::default(),
-            AccelPlugin::default(),
-            AccelCullingPlugin,
-            AccelOverlaysPlugin,
+            // The trees, culling and the overlays: no picking, preview or panel, whose costs
+            // would blur the figures this example shows.
+            AccelPlugins
+                .build()
+                .disable::<AccelPickingPlugin>()
+                .disable::<AccelSpritePickingPlugin>()
+                .disable::<AccelPreviewPlugin>()
+                .disable::<AccelPanelPlugin>(),
         ))
         .insert_resource(Scene {
             entities: arg("--entities", 100_000),

@@ -20,10 +20,11 @@ use bevy::math::Vec3A;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
-use bevy_accel::spatial_accel::bsp::BspTree;
+use bevy_accel::prelude::*;
+use spatial_accel::bsp::BspTree;
 
-#[path = "support/screenshot.rs"]
-mod screenshot;
+mod support;
+use support::screenshot;
 
 /// How far apart the two copies stand (each is seen by its own camera on its own layer).
 const APART: f32 = 100.0;

@@ -1,7 +1,7 @@
 //! The examples' screenshot mode: `ACCEL_SCREENSHOT=out.png` saves a frame and exits, with an
 //! error unless the example's own check passes. How `.ci/real-window` tests them.
 
-// Each example includes this file and uses part of it.
+// Each example uses part of it.
 #![allow(dead_code)]
 
 use bevy::prelude::*;

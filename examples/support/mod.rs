@@ -1,0 +1,3 @@
+//! What the examples share: `mod support;` in an example brings it in.
+
+pub mod screenshot;
