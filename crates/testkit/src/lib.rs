@@ -13,6 +13,8 @@
 //! - [`bunny`]: the Stanford bunny, read from the repository's `assets/bunny.obj`, and the
 //!   small OBJ reader that reads it.
 //! - [`triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
+//! - [`dynamic_workload`]: the dynamic-tree workload of the bench tool's dynamic BVH rows and
+//!   of its parry peer.
 //!
 //! Everything is deterministic: the same seed gives the same scene on every machine, so a
 //! failing case is reproduced by its seed alone.
@@ -24,6 +26,7 @@
 
 pub mod boxes;
 pub mod bunny;
+pub mod dynamic_workload;
 mod mesh;
 mod rng;
 pub mod shapes;
