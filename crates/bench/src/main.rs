@@ -1,7 +1,11 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
-//! `cargo run -p accel-bench --profile dev -- SUITE [--quick] [--json FILE] [--plots DIR]
+//! `cargo run -p accel-bench --profile dev -- SUITE... [--quick] [--json FILE] [--plots DIR]
 //! [--overlays-off] [--panel-closed] [--compute-threads N] [--scene N/PCT/CAMERA[/INDEX]]`
+//!
+//! The suites run in the order given (`all` for every suite). `-h` prints a summary of the
+//! arguments, `--help` each suite and flag at length; a bad argument exits with code 2 and the
+//! usage (clap reads the command line).
 //!
 //! Suites of the core crate: `stress` (correctness under numerically hostile input; exits
 //! non-zero on any miss, leak, panic or NaN), `build` (build time against tree quality),
@@ -22,9 +26,13 @@
 //! (the loose octree and the uniform grid against the dynamic BVH, the quadtree against
 //! rstar) and `triangles` (the kd-tree against the mesh BVH and kdtree-ray, the BSP tree).
 //! `all` runs
-//! every suite. Each prints a table, and optionally writes JSON and draws SVG plots of time
-//! against error or quality with the Pareto front marked. `--quick` shrinks every suite so
-//! that `all --quick` is a fast check (CI runs it for the failure counts).
+//! every suite. Each prints a table, and optionally writes JSON (`--json`) and draws SVG plots
+//! (`--plots`) of time against error or quality with the Pareto front marked. `--quick`
+//! shrinks every suite so that `all --quick` is a fast check (CI runs it for the failure
+//! counts). `--compute-threads N` (1 or more) gives Bevy's compute pool N threads in the
+//! plugin suites; `--scene N/PCT/CAMERA[/INDEX]` runs the frame suite on that scene only
+//! (`1000000/25/strategy`), and with INDEX (`Bvh`, `Grid`, `Automatic`, ...) only that index
+//! beside the floor and Bevy.
 
 mod json;
 mod machine;
@@ -35,118 +43,167 @@ mod suites;
 mod table;
 mod timing;
 
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::error::{ContextKind, ContextValue};
+use clap::{CommandFactory, Parser};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// What the command line asked for.
-#[derive(Clone, Debug)]
+/// One tool for the accel crates' measurements: each suite prints a table, and optionally
+/// writes JSON and draws SVG plots of time against error or quality with the Pareto front
+/// marked. The exit code is non-zero where a suite counted failures.
+#[derive(Clone, Debug, Parser)]
+#[command(name = "accel-bench", args_override_self = true)]
 pub struct Options {
-    /// The suites to run, in order.
+    /// The suites to run, in order (`all`: every suite).
+    #[arg(value_name = "SUITE", required = true, value_parser = suite_names())]
     pub suites: Vec<String>,
     /// Small sizes, for a check in about a minute.
+    #[arg(long)]
     pub quick: bool,
     /// Where to write the JSON report of every suite run.
+    #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Where to draw the SVG plots.
+    #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
     /// The frame suite also runs the BVH app with Bevy's gizmos, and with the overlays
     /// plugin, every overlay off.
+    #[arg(long)]
     pub overlays_off: bool,
     /// The frame suite also runs the BVH app with bevy_egui, and with bevy_egui and the
     /// panel plugin, the panel closed.
+    #[arg(long)]
     pub panel_closed: bool,
     /// Threads of Bevy's compute pool for the plugin suites (Bevy's default otherwise: what
     /// is left of the cores after one each for I/O and async work, at least one).
+    #[arg(long, value_name = "N", value_parser = thread_count)]
     pub compute_threads: Option<usize>,
     /// The frame suite runs only this scene (`1000000/25/strategy`), and with a fourth part
-    /// (`/Grid`) only that index beside the floor and Bevy: one cell, for a profiler.
+    /// (`/Grid`, or another index: `Bvh`, `Automatic`, ...) only that index beside the floor
+    /// and Bevy: one cell, for a profiler.
+    #[arg(long = "scene", value_name = "N/PCT/CAMERA[/INDEX]", value_parser = frame_scene)]
     pub frame_scene: Option<String>,
 }
 
-const SUITES: &[&str] = &[
-    "stress",
-    "build",
-    "update",
-    "rays",
-    "meshes",
-    "preview",
-    "frame",
-    "culling",
+/// The suites, in the order `all` runs them, each with its line of `--help`.
+const SUITES: &[(&str, &str)] = &[
+    (
+        "stress",
+        "correctness under numerically hostile input (fails on any miss, leak, panic or NaN)",
+    ),
+    ("build", "build time against tree quality"),
+    ("update", "upkeep time under motion against quality loss"),
+    ("rays", "ray time against error, with peers"),
+    (
+        "meshes",
+        "mesh BVH build and refit time against tree quality, with peers",
+    ),
+    (
+        "preview",
+        "the ray-traced preview's image error against time, per top-level index",
+    ),
+    (
+        "frame",
+        "the plugin's whole `App::update` against Bevy's (see --overlays-off, --panel-closed, --scene)",
+    ),
+    (
+        "culling",
+        "the culling system alone against Bevy's (a false negative is a failure)",
+    ),
     #[cfg(feature = "light_culling")]
-    "lights",
-    "picking",
-    "sync",
-    "scenery",
-    "walks",
-    "geometry",
-    "structures",
-    "triangles",
+    (
+        "lights",
+        "the shadow views' culling against bevy_light's (a missing caster is a failure)",
+    ),
+    (
+        "picking",
+        "per-ray time of mesh and bounds casts against `MeshRayCast` (a wrong mesh hit is a failure)",
+    ),
+    (
+        "sync",
+        "the trees' upkeep per frame for each index choice, against the least any upkeep costs",
+    ),
+    (
+        "scenery",
+        "streaming static scenery in and out against plain Bevy (an entity lost or kept is a failure)",
+    ),
+    (
+        "walks",
+        "the shared walks' time per query through every tree, against a linear scan",
+    ),
+    (
+        "geometry",
+        "the cost of one geometric test, against its f64 error",
+    ),
+    (
+        "structures",
+        "the loose octree and the uniform grid against the dynamic BVH, the quadtree against rstar",
+    ),
+    (
+        "triangles",
+        "the kd-tree against the mesh BVH and kdtree-ray, the BSP tree",
+    ),
 ];
 
-const USAGE: &str = "usage: accel-bench SUITE [--quick] [--json FILE] [--plots DIR] \
-    [--overlays-off] [--panel-closed] [--compute-threads N] [--scene N/PCT/CAMERA[/INDEX]]\n\
-    SUITE: stress | build | update | rays | meshes | preview | frame | culling | lights | picking | sync |\n\
-    scenery | walks | geometry | structures | triangles | all\n\
-    --overlays-off: the frame suite also times the overlays plugin with every overlay off\n\
-    --panel-closed: the frame suite also times the panel plugin with the panel closed\n\
-    --compute-threads N: Bevy's compute pool gets N threads in the plugin suites\n\
-    --scene N/PCT/CAMERA[/INDEX]: the frame suite runs that scene only (1000000/25/strategy),\n\
-      and with INDEX (Bvh, Grid, Automatic, ...) only that index beside the floor and Bevy";
+/// The names a `SUITE` argument may take: every suite, and `all`.
+fn suite_names() -> PossibleValuesParser {
+    SUITES
+        .iter()
+        .map(|&(name, help)| PossibleValue::new(name).help(help))
+        .chain([PossibleValue::new("all").help("every suite above, in this order")])
+        .into()
+}
 
-fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
-    let mut opts = Options {
-        suites: Vec::new(),
-        quick: false,
-        json: None,
-        plots: None,
-        overlays_off: false,
-        panel_closed: false,
-        compute_threads: None,
-        frame_scene: None,
-    };
-    let mut args = args.into_iter();
-    while let Some(arg) = args.next() {
-        match arg.as_str() {
-            "--quick" => opts.quick = true,
-            "--overlays-off" => opts.overlays_off = true,
-            "--panel-closed" => opts.panel_closed = true,
-            "--compute-threads" => {
-                let n = args.next().ok_or("--compute-threads needs a count")?;
-                let n = n.parse().ok().filter(|&n: &usize| n >= 1).ok_or(format!(
-                    "--compute-threads needs a count of 1 or more, not {n:?}"
-                ))?;
-                opts.compute_threads = Some(n);
-            }
-            "--scene" => {
-                let scene = args.next().ok_or("--scene needs N/PCT/CAMERA")?;
-                suites::frame::parse_scene(&scene)?;
-                opts.frame_scene = Some(scene);
-            }
-            "--json" => opts.json = Some(args.next().ok_or("--json needs a file")?.into()),
-            "--plots" => opts.plots = Some(args.next().ok_or("--plots needs a folder")?.into()),
-            "-h" | "--help" => return Err(String::new()),
-            "all" => opts.suites.extend(SUITES.iter().map(|s| s.to_string())),
-            s if SUITES.contains(&s) => opts.suites.push(s.to_string()),
-            other => return Err(format!("unknown argument {other:?}")),
-        }
-    }
-    if opts.suites.is_empty() {
-        return Err("no suite given".into());
-    }
+/// `--compute-threads`: a count of 1 or more.
+fn thread_count(text: &str) -> Result<usize, String> {
+    text.parse()
+        .ok()
+        .filter(|&n: &usize| n >= 1)
+        .ok_or(format!("needs a count of 1 or more, not {text:?}"))
+}
+
+/// `--scene`: refused here when the frame suite could not read it.
+fn frame_scene(text: &str) -> Result<String, String> {
+    suites::frame::parse_scene(text)?;
+    Ok(text.to_string())
+}
+
+/// The options of a command line (`args`, the program's name first), with `all` replaced by
+/// every suite.
+fn parse_from<I, T>(args: I) -> Result<Options, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let mut opts = Options::try_parse_from(args)?;
+    opts.suites = opts
+        .suites
+        .iter()
+        .flat_map(|s| match s.as_str() {
+            "all" => SUITES.iter().map(|&(name, _)| name.to_string()).collect(),
+            _ => vec![s.clone()],
+        })
+        .collect();
     Ok(opts)
 }
 
-fn main() -> ExitCode {
-    let opts = match parse(std::env::args().skip(1)) {
-        Ok(o) => o,
-        Err(e) => {
-            if !e.is_empty() {
-                eprintln!("{e}");
-            }
-            eprintln!("{USAGE}");
-            return ExitCode::from(2);
+/// The options of this process's command line; on bad input, clap's message and the usage
+/// on stderr and exit code 2 (`--help` on stdout, exit code 0).
+fn parse() -> Options {
+    parse_from(std::env::args_os()).unwrap_or_else(|mut e| {
+        // Clap shows the usage with some errors only (a missing or unknown argument, not a
+        // bad value).
+        if e.use_stderr() && e.get(ContextKind::Usage).is_none() {
+            let usage = Options::command().render_usage();
+            e.insert(ContextKind::Usage, ContextValue::StyledStr(usage));
         }
-    };
+        e.exit()
+    })
+}
+
+fn main() -> ExitCode {
+    let opts = parse();
     if let Some(n) = opts.compute_threads {
         // Bevy's pools are made once per process, by the first app unless made before it.
         let mut pools = bevy::app::TaskPoolOptions::default();
@@ -186,5 +243,69 @@ fn main() -> ExitCode {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &str) -> Result<Options, clap::Error> {
+        parse_from(std::iter::once("accel-bench").chain(args.split_whitespace()))
+    }
+
+    #[test]
+    fn suites_in_order_between_flags_and_all_expanded() {
+        let o = parse("geometry --quick all --json f.json build").unwrap();
+        let mut want = vec!["geometry".to_string()];
+        want.extend(SUITES.iter().map(|&(name, _)| name.to_string()));
+        want.push("build".into());
+        assert_eq!(o.suites, want);
+        assert!(o.quick);
+        assert_eq!(o.json, Some(PathBuf::from("f.json")));
+    }
+
+    #[test]
+    fn flags_and_values() {
+        let o = parse(
+            "picking --json f.json --plots dir --compute-threads 2 --overlays-off --panel-closed",
+        )
+        .unwrap();
+        assert_eq!(o.suites, ["picking"]);
+        assert_eq!(o.plots, Some(PathBuf::from("dir")));
+        assert_eq!(o.compute_threads, Some(2));
+        assert!(o.overlays_off && o.panel_closed && !o.quick);
+        let o = parse("frame --scene 1000000/25/strategy --quick --quick").unwrap();
+        assert_eq!(o.frame_scene.as_deref(), Some("1000000/25/strategy"));
+        let o = parse("frame --scene 1000/25/ground/Grid --json a --json b").unwrap();
+        assert_eq!(o.frame_scene.as_deref(), Some("1000/25/ground/Grid"));
+        assert_eq!(o.json, Some(PathBuf::from("b")));
+    }
+
+    #[test]
+    fn bad_input_is_refused_with_exit_code_2() {
+        for args in [
+            "",
+            "--quick",
+            "nosuch",
+            "build --nosuch",
+            "build --compute-threads 0",
+            "build --compute-threads many",
+            "frame --scene 1000/25",
+            "frame --scene 1000/101/strategy",
+            "frame --scene 1000/25/strategy/NoSuchIndex",
+            "build --json",
+        ] {
+            let e = parse(args)
+                .err()
+                .unwrap_or_else(|| panic!("{args:?} accepted"));
+            assert_eq!(e.exit_code(), 2, "{args:?}");
+        }
+        for args in ["-h", "--help", "build -h"] {
+            let e = parse(args)
+                .err()
+                .unwrap_or_else(|| panic!("{args:?} accepted"));
+            assert_eq!(e.exit_code(), 0, "{args:?}");
+        }
     }
 }

@@ -1,58 +1,49 @@
-//! A progress line on stderr for the long suites: the step, how far, and the time so far.
+//! A progress bar on stderr for the long suites: the step, how far, and the time so far.
+//! indicatif draws it only where stderr is a terminal; the closing line is printed either way.
 
-use std::io::Write;
-use std::time::{Duration, Instant};
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
+use std::fmt::Write;
+use std::time::Instant;
 
-/// Progress through a suite's steps; redraws at most a few times a second.
+/// Progress through a suite's steps; redrawn at the steps only (no ticking thread while a
+/// suite measures).
 pub struct Progress {
     suite: &'static str,
-    total: usize,
-    done: usize,
     started: Instant,
-    last_draw: Option<Instant>,
+    bar: ProgressBar,
 }
 
 impl Progress {
     /// A suite of `total` steps.
     pub fn new(suite: &'static str, total: usize) -> Self {
+        let style = ProgressStyle::with_template("[{prefix}] {pos}/{len} {seconds} {wide_msg}")
+            .expect("a valid template")
+            .with_key("seconds", |state: &ProgressState, w: &mut dyn Write| {
+                let _ = write!(w, "{:.1}s", state.elapsed().as_secs_f64());
+            });
+        let bar = ProgressBar::new(total as u64)
+            .with_style(style)
+            .with_prefix(suite);
         Self {
             suite,
-            total,
-            done: 0,
             started: Instant::now(),
-            last_draw: None,
+            bar,
         }
     }
 
     /// One more step done; `label` says what runs next.
     pub fn step(&mut self, label: &str) {
-        self.done += 1;
-        let now = Instant::now();
-        if self
-            .last_draw
-            .is_some_and(|t| now - t < Duration::from_millis(250))
-            && self.done < self.total
-        {
-            return;
+        if self.bar.position() < self.bar.length().unwrap_or(u64::MAX) {
+            self.bar.inc(1);
         }
-        self.last_draw = Some(now);
-        let mut err = std::io::stderr().lock();
-        let _ = write!(
-            err,
-            "\r\x1b[2K[{}] {}/{} {:.1}s {}",
-            self.suite,
-            self.done.min(self.total),
-            self.total,
-            self.started.elapsed().as_secs_f64(),
-            label
-        );
-        let _ = err.flush();
+        self.bar.set_message(label.to_string());
     }
 
-    /// Ends the line.
+    /// Clears the bar and says how long the suite took.
     pub fn finish(&mut self) {
+        self.bar.finish_and_clear();
         eprintln!(
-            "\r\x1b[2K[{}] done in {:.1}s",
+            "[{}] done in {:.1}s",
             self.suite,
             self.started.elapsed().as_secs_f64()
         );

@@ -13,6 +13,11 @@
 //! - [`bunny`]: the Stanford bunny, read from the repository's `assets/bunny.obj`, and the
 //!   small OBJ reader that reads it.
 //! - [`triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
+//! - [`dynamic_workload`]: the dynamic-tree workload of the bench tool's dynamic BVH rows and
+//!   of its parry peer.
+//! - `bevy_apps` (feature `bevy`): the plain headless Bevy app of the plugin's tests and
+//!   benches (to which they add the plugin), the culling scenes' grid, and (feature `lights`)
+//!   bevy_light in that app.
 //!
 //! Everything is deterministic: the same seed gives the same scene on every machine, so a
 //! failing case is reproduced by its seed alone.
@@ -22,8 +27,11 @@
 //! the items here that return plain numbers and glam types ([`Rng`], [`Mesh`], [`shapes`]).
 #![warn(missing_docs)]
 
+#[cfg(feature = "bevy")]
+pub mod bevy_apps;
 pub mod boxes;
 pub mod bunny;
+pub mod dynamic_workload;
 mod mesh;
 mod rng;
 pub mod shapes;

@@ -15,11 +15,12 @@
 //! wrong picture, counted as a miss in the report's failure rows, so that the tool exits
 //! non-zero.
 
-use super::plugin_common::{grid_point, headless_app};
+use super::headless_app;
 use super::point;
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
+use accel_testkit::bevy_apps::grid_point;
 use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::{VisibilityClass, VisibilitySystems, check_visibility_cpu_culling};
 use bevy::ecs::schedule::SingleThreadedExecutor;

@@ -20,11 +20,12 @@
 //! shadow), one we list and Bevy does not is counted in the notes (work for nothing). Points:
 //! time against the share of listed casters Bevy does not list.
 
-use super::plugin_common::{add_lights, grid_point, headless_app};
+use super::headless_app;
 use super::point;
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
+use accel_testkit::bevy_apps::{add_lights, grid_point};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::{
     CascadesVisibleEntities, CubemapVisibleEntities, NoAutoAabb, VisibleMeshEntities,

@@ -1,6 +1,6 @@
 //! The suites, one file (or folder) each, and what they share: the point constructor, the
-//! scenes and peers' adapters of `common`, and the plugin tests' headless app, included from
-//! `tests/common`.
+//! scenes and peers' adapters of `common`, and the plugin tests' headless app (the test kit's
+//! plain Bevy app with the plugin).
 //!
 //! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
 //! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
@@ -29,16 +29,12 @@ pub mod walks;
 
 pub mod common;
 
-// The plugin tests' headless app and grid, compiled here too rather than copied. Its parts for
-// the plugin's optional features are behind `cfg(feature = ...)` of the root package, which
-// this crate does not have.
-#[path = "../../../../tests/common/mod.rs"]
-#[allow(unexpected_cfgs, reason = "the root package's features, off here")]
-pub mod plugin_common;
-
 use crate::Options;
 use crate::json::{Point, Report};
 use accel_testkit::Rng;
+use accel_testkit::bevy_apps::plain_bevy_app;
+use bevy::app::App;
+use bevy_accel::AccelPlugin;
 use glam::Vec3A;
 use spatial_accel::Ray;
 
@@ -64,6 +60,14 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "triangles" => triangles::run(opts.quick),
         other => unreachable!("the argument parser lets only known suites through: {other}"),
     }
+}
+
+/// The test kit's plain headless Bevy app with the trees (`AccelPlugin`), as the plugin tests'
+/// `headless_app`. Not finished: add the plugins under test, then call `App::finish`.
+pub fn headless_app() -> App {
+    let mut app = plain_bevy_app();
+    app.add_plugins(AccelPlugin::default());
+    app
 }
 
 /// One point of a plot.

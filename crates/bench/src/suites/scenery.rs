@@ -19,12 +19,12 @@
 //! tracks exactly the live boxes (an entity lost or kept after despawn is a leak in the
 //! failure rows).
 
-use super::plugin_common::plain_bevy_app;
 use super::point;
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
 use accel_testkit::Rng;
+use accel_testkit::bevy_apps::plain_bevy_app;
 use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::VisibilityClass;
 use bevy::math::primitives::ViewFrustum;

@@ -1,5 +1,5 @@
 //! spatial_accel's `DynamicBvh` against parry3d 0.31's `Bvh` on the workload of the bench tool's
-//! dynamic BVH rows (`crates/bench/src/suites/common/dynamic_workload.rs`): 100,000 boxes,
+//! dynamic BVH rows (`accel_testkit::dynamic_workload`): 100,000 boxes,
 //! centres uniform in [-200, 200]^3, half extents 0.1-1.0, one thread, both trees in the same
 //! process, each figure the best of several runs.
 //!
@@ -14,19 +14,16 @@
 //!
 //! `cargo run --release --manifest-path crates/bench/peers/parry/Cargo.toml`
 
-use spatial_accel::Aabb;
+use accel_testkit::Rng;
+use accel_testkit::dynamic_workload::{built_tree as ours, scene};
 use glam::Vec3A;
 use parry3d::bounding_volume::Aabb as ParryAabb;
 use parry3d::math::Vector;
 use parry3d::partitioning::{Bvh, BvhWorkspace};
+use spatial_accel::Aabb;
 use std::time::Instant;
 
 const N: usize = 100_000;
-
-#[path = "../../../src/suites/common/dynamic_workload.rs"]
-mod dynamic_workload;
-use accel_testkit::Rng;
-use dynamic_workload::{built_tree as ours, scene};
 
 fn parry(b: &Aabb) -> ParryAabb {
     ParryAabb::new(

@@ -4,7 +4,6 @@
 //! on the peer crates' trees.
 #![allow(dead_code)]
 
-pub mod dynamic_workload;
 pub mod peers;
 pub mod tinybvh;
 

@@ -1,8 +1,8 @@
 //! The frame suite's apps: the scene of wobbling boxes, the cameras, the pointer ray, and one
 //! app per contender built over the very same scene.
 
-use crate::suites::plugin_common::plain_bevy_app;
 use accel_testkit::Rng;
+use accel_testkit::bevy_apps::plain_bevy_app;
 use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::VisibilityClass;
 use bevy::math::primitives::ViewFrustum;

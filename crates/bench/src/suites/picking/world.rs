@@ -2,7 +2,7 @@
 //! them, brought to a steady state (first rebuilds installed, the ray snapshot taken where
 //! allowed) before anything is timed.
 
-use crate::suites::plugin_common::headless_app;
+use crate::suites::headless_app;
 use accel_testkit::Rng;
 use bevy::prelude::*;
 use bevy_accel::picking::{AccelPickingSettings, SlotMeshTable, SlotMeshTableMode};

@@ -1,6 +1,6 @@
 //! The loose octree (looseness 2 and 1.5) and the uniform grid (automatic cell size, and a
 //! fixed cell of 4, four times the largest box's half extent) against the dynamic BVH on the
-//! dynamic workload (`dynamic_workload.rs`: 100,000 boxes, centres uniform in
+//! dynamic workload (`accel_testkit::dynamic_workload`: 100,000 boxes, centres uniform in
 //! [-200, 200]^3, half extents 0.1 to 1; 10,000 at `--quick`):
 //!
 //! - a frame: a tenth of the boxes take a random step of up to a unit per axis (the same
@@ -20,11 +20,11 @@
 use super::{check_row, secs};
 use crate::json::Report;
 use crate::progress::Progress;
-use crate::suites::common::dynamic_workload::{built_tree, scene};
 use crate::suites::common::frustum_selecting;
 use crate::suites::{incoherent_rays, point};
 use crate::timing::best_of;
 use accel_testkit::Rng;
+use accel_testkit::dynamic_workload::{built_tree, scene};
 use core::ops::ControlFlow;
 use glam::Vec3A;
 use spatial_accel::grid::{GridConfig, UniformGrid};

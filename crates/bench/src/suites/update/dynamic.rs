@@ -12,7 +12,7 @@ mod frames;
 
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
-use crate::suites::common::dynamic_workload::{built_tree, scene};
+use accel_testkit::dynamic_workload::{built_tree, scene};
 use spatial_accel::Aabb;
 
 /// Our box as obvhs's.

@@ -1,11 +1,9 @@
-//! The dynamic-tree workload shared by the bench tool's dynamic BVH rows (`accel-bench update`,
-//! `crates/bench/src/suites/update/dynamic.rs`) and the parry peer package
-//! (`crates/bench/peers/parry`, which includes this file by path): 100,000 boxes, centres uniform in
-//! [-200, 200]^3, half extents 0.1-1.0 (`accel_testkit`'s generator makes them and the random
-//! numbers that move them).
-#![allow(dead_code)]
+//! The dynamic-tree workload shared by the bench tool's dynamic BVH rows (`accel-bench update`
+//! and `structures`) and the parry peer package (`crates/bench/peers/parry`): 100,000 boxes,
+//! centres uniform in [-200, 200]^3, half extents 0.1-1.0 (made by [`Rng`], which also makes
+//! the random numbers that move them).
 
-use accel_testkit::{Rng, uniform_boxes};
+use crate::{Rng, uniform_boxes};
 use spatial_accel::Aabb;
 use spatial_accel::dynamic::{DynamicBvh, LeafHandle};
 
