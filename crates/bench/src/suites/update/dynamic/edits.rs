@@ -11,6 +11,7 @@ use accel_testkit::Rng;
 use glam::Vec3A;
 use obvhs::bvh2::Bvh2;
 use obvhs::faststack::HeapStack;
+use spatial_accel::prefetch::prefetch;
 use spatial_accel::{Aabb, DynamicBvhConfig};
 use std::hint::black_box;
 use std::time::Instant;
@@ -318,19 +319,6 @@ fn memory_floor(s: &mut Section, leaves: usize) {
          prefetched {t_prefetched:.1}, dependent chain {t_chain:.1}",
         (n * 64) as f64 / 1e6
     ));
-}
-
-/// A hint to load `x`'s line.
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint that never faults, whatever the address.
-    unsafe {
-        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 /// Runs this part on `boxes`: `runs` best-of runs, `rounds` median rounds.
