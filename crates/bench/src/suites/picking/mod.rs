@@ -19,7 +19,7 @@
 //! binary tree, with 1% moving before every round (the snapshot refit; the notes give the
 //! frame's cost), and at rest in the octree and the grid. A world is built after the last one
 //! is dropped; at 10^5 entities the per-ray time depends on what the process allocated
-//! before (docs/experiments.md, Picking), so compare rows of one world.
+//! before, so compare rows of one world.
 //!
 //! Error: the share of rays whose nearest hit entity differs from `MeshRayCast`'s. For mesh
 //! casts it must be 0, and every disagreement counts as a miss in the report's failure rows
