@@ -79,7 +79,7 @@ impl Default for BvhIndexSettings {
 }
 
 /// What the BVH backend did in the last frame, beside the figures every index reports
-/// ([`AccelStats::dynamic_index`]).
+/// ([`AccelStats::dynamic_index`](crate::AccelStats::dynamic_index)).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BvhIndexStats {
     /// The dynamic tree's last maintenance report (refit size, optimiser work, quality,

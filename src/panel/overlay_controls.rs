@@ -1,11 +1,12 @@
 //! The overlays' toggles, when the `overlays` feature and its plugin are in.
 
 use bevy::ecs::system::SystemParam;
-use bevy::prelude::*;
 use bevy_egui::egui;
 
 #[cfg(feature = "overlays")]
 use crate::overlays::{AccelOverlaySettings, AccelOverlayStats};
+#[cfg(feature = "overlays")]
+use bevy::prelude::*;
 
 /// The overlay settings and counts, where the app has them.
 #[derive(SystemParam)]

@@ -9,6 +9,11 @@ use egui_plot::{Line, Plot, PlotPoints};
 
 /// The plotted diagnostics, in order: the frame, then each service.
 fn plotted() -> Vec<(&'static str, DiagnosticPath)> {
+    // Grown below by each service compiled in.
+    #[cfg_attr(
+        not(any(feature = "culling", feature = "picking", feature = "preview")),
+        allow(unused_mut)
+    )]
     let mut paths = vec![
         ("frame", FrameTimeDiagnosticsPlugin::FRAME_TIME),
         ("sync", AccelStats::SYNC_TIME),

@@ -20,6 +20,7 @@ mod prefetched;
 mod publish_stats;
 mod sync;
 
+#[cfg(feature = "culling")]
 pub(crate) use membership::RejectedEntities;
 
 use crate::settings::AccelSettings;

@@ -10,9 +10,9 @@
 //! - [`Mesh`] and [`shapes`]: an indexed triangle mesh with the checks the watertightness
 //!   tests need (closedness, winding number, distance to the surface), and the meshes made
 //!   from nothing: cube, icosphere, UV sphere and random triangle soups.
-//! - [`bunny`]: the Stanford bunny, read from the repository's `assets/bunny.obj`, and the
+//! - [`mod@bunny`]: the Stanford bunny, read from the repository's `assets/bunny.obj`, and the
 //!   small OBJ reader that reads it.
-//! - [`triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
+//! - [`mod@triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
 //! - [`dynamic_workload`]: the dynamic-tree workload of the bench tool's dynamic BVH rows and
 //!   of its parry peer.
 //! - `bevy_apps` (feature `bevy`): the plain headless Bevy app of the plugin's tests and

@@ -6,7 +6,7 @@
 //!   schedules, the motion system);
 //! - *bevy*: plain Bevy (no bevy_accel at all) with one camera, culled by Bevy's own
 //!   `check_visibility`;
-//! - *accel/<index>*: the same scene with `AccelPlugin`, `AccelCullingPlugin` and
+//! - `accel/<index>`: the same scene with `AccelPlugin`, `AccelCullingPlugin` and
 //!   `AccelPickingPlugin`, casting one pointer ray per frame (`AccelRayCast::cast_ray_bounds`),
 //!   the moving entities in the chosen index.
 //!
