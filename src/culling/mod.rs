@@ -74,7 +74,6 @@ pub struct AccelCullingSystems;
 /// use bevy::camera::visibility::VisibilityPlugin;
 /// use bevy::math::primitives::ViewFrustum;
 /// use bevy::prelude::*;
-/// use bevy_accel::AccelCullingPlugin;
 /// use bevy_accel::prelude::*;
 ///
 /// let mut app = App::new();

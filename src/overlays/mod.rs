@@ -111,7 +111,6 @@ pub struct AccelOverlaySystems;
 ///
 /// ```no_run
 /// use bevy::prelude::*;
-/// use bevy_accel::overlays::{AccelOverlaySettings, AccelOverlaysPlugin};
 /// use bevy_accel::prelude::*;
 ///
 /// App::new()

@@ -49,7 +49,6 @@ pub struct AccelPanelSystems;
 ///
 /// ```no_run
 /// use bevy::prelude::*;
-/// use bevy_accel::panel::AccelPanelPlugin;
 /// use bevy_accel::prelude::*;
 /// App::new()
 ///     .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelPanelPlugin))

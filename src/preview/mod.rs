@@ -179,7 +179,6 @@ pub struct AccelPreviewSystems;
 /// ```no_run
 /// use bevy::prelude::*;
 /// use bevy_accel::prelude::*;
-/// use bevy_accel::preview::{AccelPreviewPlugin, AccelPreviewSettings};
 /// App::new()
 ///     .add_plugins((DefaultPlugins, AccelPlugin::default(), AccelPickingPlugin))
 ///     .add_plugins(AccelPreviewPlugin)
