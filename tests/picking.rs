@@ -352,13 +352,7 @@ fn bounds_casts_overlaps_batches_and_max_distance_agree_with_brute_force() {
 
                 // Overlaps equal a scan of every tracked entity's exact world box.
                 let brute = |keep: &dyn Fn(&bevy_accel::spatial_accel::Aabb) -> bool| {
-                    let mut v: Vec<Entity> = trees
-                        .iter()
-                        .filter(|&(_, slot)| keep(&trees.world_bounds(slot)))
-                        .map(|(e, _)| e)
-                        .collect();
-                    v.sort_unstable();
-                    v
+                    common::entities_whose_box(&trees, keep)
                 };
                 let mut nonempty = 0;
                 for _ in 0..100 {

@@ -10,6 +10,7 @@ use bevy::prelude::*;
 use bevy_accel::prelude::*;
 use bevy_accel::spatial_accel;
 
+mod common;
 use accel_testkit::Rng;
 
 fn app(index: IndexChoice, busy: BusyMovers) -> App {
@@ -69,13 +70,7 @@ fn check_queries(app: &mut App, rng: &mut Rng) -> usize {
                 let mut rng = Rng::new(seed);
                 assert_eq!(trees.len(), tracked.iter().len());
                 let scan = |keep: &dyn Fn(&spatial_accel::Aabb) -> bool| {
-                    let mut v: Vec<Entity> = trees
-                        .iter()
-                        .filter(|&(_, slot)| keep(&trees.world_bounds(slot)))
-                        .map(|(e, _)| e)
-                        .collect();
-                    v.sort_unstable();
-                    v
+                    common::entities_whose_box(&trees, keep)
                 };
                 let mut found = 0;
                 for _ in 0..50 {

@@ -4,7 +4,7 @@ use super::extract::PreviewWorld;
 use super::scene::{EntityPreviewScene, PreviewObjects};
 use crate::prelude::*;
 use accel_testkit::Rng;
-use bevy::camera::visibility::VisibilityPlugin;
+use accel_testkit::bevy_apps::plain_bevy_app;
 use bevy::ecs::system::RunSystemOnce;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
@@ -14,19 +14,10 @@ use spatial_accel::preview::{
 use std::sync::Arc;
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        TransformPlugin,
-        VisibilityPlugin,
-        AccelPlugin::default(),
-        AccelPickingPlugin,
-    ))
-    .init_asset::<Mesh>()
-    .init_asset::<StandardMaterial>()
-    .init_asset::<Image>()
-    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>();
+    let mut app = plain_bevy_app();
+    app.add_plugins((AccelPlugin::default(), AccelPickingPlugin))
+        .init_asset::<StandardMaterial>()
+        .init_asset::<Image>();
     app.finish();
     app
 }

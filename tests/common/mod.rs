@@ -26,3 +26,18 @@ pub fn app() -> App {
     app.finish();
     app
 }
+
+/// The tracked entities whose exact world box passes `keep`, sorted: the brute force that
+/// every overlap query is compared with.
+pub fn entities_whose_box(
+    trees: &AccelTrees,
+    keep: impl Fn(&bevy_accel::spatial_accel::Aabb) -> bool,
+) -> Vec<Entity> {
+    let mut found: Vec<Entity> = trees
+        .iter()
+        .filter(|&(_, slot)| keep(&trees.world_bounds(slot)))
+        .map(|(entity, _)| entity)
+        .collect();
+    found.sort_unstable();
+    found
+}
