@@ -1,7 +1,7 @@
 //! `accel-bench`: one tool for the accel crate's measurements.
 //!
 //! `cargo run -p accel-bench --profile dev -- SUITE... [--quick] [--json FILE] [--plots DIR]
-//! [--overlays-off] [--panel-closed] [--compute-threads N] [--scene N/PCT/CAMERA[/INDEX]]`
+//! [--overlays-off] [--panel-closed] [--compute-threads N[,N...]] [--scene SCENE]`
 //!
 //! The suites run in the order given (`all` for every suite). `-h` prints a summary of the
 //! arguments, `--help` each suite and flag at length; a bad argument exits with code 2 and the
@@ -30,9 +30,10 @@
 //! (`--plots`) of time against error or quality with the Pareto front marked. `--quick`
 //! shrinks every suite so that `all --quick` is a fast check (CI runs it for the failure
 //! counts). `--compute-threads N` (1 or more) gives Bevy's compute pool N threads in the
-//! plugin suites; `--scene N/PCT/CAMERA[/INDEX]` runs the frame suite on that scene only
-//! (`1000000/25/strategy`), and with INDEX (`Bvh`, `Grid`, `Automatic`, ...) only that index
-//! beside the floor and Bevy.
+//! plugin suites, and a list (`1,2`) runs the tool once per count; `--scene
+//! N/PCT/CAMERA[/INDEX]` runs the frame suite on that field scene only
+//! (`1000000/25/strategy`), `--scene city/N/CAMERA[/INDEX]` on that city scene, and with
+//! INDEX (`Bvh`, `Grid`, `Automatic`, ...) only that index beside the floor and Bevy.
 
 mod json;
 mod machine;
@@ -75,14 +76,18 @@ pub struct Options {
     /// panel plugin, the panel closed.
     #[arg(long)]
     pub panel_closed: bool,
-    /// Threads of Bevy's compute pool for the plugin suites (Bevy's default otherwise: what
-    /// is left of the cores after one each for I/O and async work, at least one).
-    #[arg(long, value_name = "N", value_parser = thread_count)]
-    pub compute_threads: Option<usize>,
-    /// The frame suite runs only this scene (`1000000/25/strategy`), and with a fourth part
+    /// Threads of Bevy's compute pool for the plugin suites, the same for every app (Bevy's
+    /// default otherwise: what is left of the cores after one each for I/O and async work,
+    /// at least one). A list (`1,2`) sweeps: the tool runs once per count, each run in a
+    /// process of its own (Bevy makes its pools once per process), its JSON file and plots
+    /// named for the count.
+    #[arg(long, value_name = "N[,N...]", value_parser = thread_count, value_delimiter = ',')]
+    pub compute_threads: Vec<usize>,
+    /// The frame suite runs only this scene: a field (`1000000/25/strategy`: entities,
+    /// percent moving, camera) or a city (`city/100000/ground`), and with a last part
     /// (`/Grid`, or another index: `Bvh`, `Automatic`, ...) only that index beside the floor
     /// and Bevy: one cell, for a profiler.
-    #[arg(long = "scene", value_name = "N/PCT/CAMERA[/INDEX]", value_parser = frame_scene)]
+    #[arg(long = "scene", value_name = "[city/]N[/PCT]/CAMERA[/INDEX]", value_parser = frame_scene)]
     pub frame_scene: Option<String>,
 }
 
@@ -202,9 +207,65 @@ fn parse() -> Options {
     })
 }
 
+/// Runs this tool once per count of `counts`, each in a child process with that count alone
+/// (and its JSON file and plots named for it); the worst exit code.
+fn sweep_threads(opts: &Options, counts: &[usize]) -> ExitCode {
+    let exe = match std::env::current_exe() {
+        Ok(exe) => exe,
+        Err(e) => {
+            eprintln!("the sweep needs this tool's own path: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut worst = ExitCode::SUCCESS;
+    for &n in counts {
+        println!("\n==== {n} compute thread(s)");
+        let mut child = std::process::Command::new(&exe);
+        child
+            .args(&opts.suites)
+            .arg("--compute-threads")
+            .arg(n.to_string());
+        for (flag, on) in [
+            ("--quick", opts.quick),
+            ("--overlays-off", opts.overlays_off),
+            ("--panel-closed", opts.panel_closed),
+        ] {
+            if on {
+                child.arg(flag);
+            }
+        }
+        if let Some(scene) = &opts.frame_scene {
+            child.arg("--scene").arg(scene);
+        }
+        if let Some(json) = &opts.json {
+            child
+                .arg("--json")
+                .arg(json.with_extension(format!("threads-{n}.json")));
+        }
+        if let Some(plots) = &opts.plots {
+            child.arg("--plots").arg(plots.join(format!("threads-{n}")));
+        }
+        match child.status() {
+            Ok(status) if status.success() => {}
+            Ok(status) => {
+                eprintln!("the run with {n} compute thread(s) ended with {status}");
+                worst = ExitCode::FAILURE;
+            }
+            Err(e) => {
+                eprintln!("the run with {n} compute thread(s) did not start: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    worst
+}
+
 fn main() -> ExitCode {
     let opts = parse();
-    if let Some(n) = opts.compute_threads {
+    if opts.compute_threads.len() > 1 {
+        return sweep_threads(&opts, &opts.compute_threads);
+    }
+    if let Some(&n) = opts.compute_threads.first() {
         // Bevy's pools are made once per process, by the first app unless made before it.
         let mut pools = bevy::app::TaskPoolOptions::default();
         pools.compute.min_threads = n;
@@ -273,8 +334,10 @@ mod tests {
         .unwrap();
         assert_eq!(o.suites, ["picking"]);
         assert_eq!(o.plots, Some(PathBuf::from("dir")));
-        assert_eq!(o.compute_threads, Some(2));
+        assert_eq!(o.compute_threads, [2]);
         assert!(o.overlays_off && o.panel_closed && !o.quick);
+        let o = parse("frame --compute-threads 1,2").unwrap();
+        assert_eq!(o.compute_threads, [1, 2]);
         let o = parse("frame --scene 1000000/25/strategy --quick --quick").unwrap();
         assert_eq!(o.frame_scene.as_deref(), Some("1000000/25/strategy"));
         let o = parse("frame --scene 1000/25/ground/Grid --json a --json b").unwrap();
@@ -291,9 +354,11 @@ mod tests {
             "build --nosuch",
             "build --compute-threads 0",
             "build --compute-threads many",
+            "build --compute-threads 1,0",
             "frame --scene 1000/25",
             "frame --scene 1000/101/strategy",
             "frame --scene 1000/25/strategy/NoSuchIndex",
+            "frame --scene city/1000/25/strategy",
             "build --json",
         ] {
             let e = parse(args)

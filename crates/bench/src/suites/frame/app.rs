@@ -1,5 +1,5 @@
-//! The frame suite's apps: the scene of wobbling boxes, the cameras, the pointer ray, and one
-//! app per contender built over the very same scene.
+//! The frame suite's apps: the scenes (a field of wobbling boxes, a city), the cameras, the
+//! pointer ray, and one app per contender built over the very same scene.
 
 use accel_testkit::Rng;
 use accel_testkit::bevy_apps::plain_bevy_app;
@@ -21,6 +21,15 @@ struct Drawable;
 struct Mover {
     home: Vec3,
     phase: f32,
+}
+
+/// A car of the city, driving from `start` along `velocity` (units a frame) and wrapping
+/// round the city, whose side is `side`.
+#[derive(Component)]
+struct Car {
+    start: Vec3,
+    velocity: Vec3,
+    side: f32,
 }
 
 /// Frames run so far: the motion follows it, so every app moves its boxes alike.
@@ -90,12 +99,25 @@ pub enum CameraKind {
     Ground,
 }
 
+/// What stands in a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// Unit boxes on a square field 4 units apart, none marked static, a share wobbling.
+    Field,
+    /// A city on the same square: half the entities buildings of mixed sizes marked
+    /// `AccelStatic`, a quarter small parked props (not marked), a quarter cars driving in
+    /// straight lines every frame, and four huge ground tiles (static).
+    City,
+}
+
 /// One scene: the boxes, the share of them that moves, and the camera.
 #[derive(Clone, Copy, Debug)]
 pub struct Scene {
-    /// Boxes on the field.
+    /// What stands on the square.
+    pub layout: Layout,
+    /// Entities in the scene.
     pub entities: usize,
-    /// Percent of them that wobble every frame.
+    /// Percent of them that move every frame (the city's cars: a quarter).
     pub moving_pct: u32,
     /// The camera.
     pub camera: CameraKind,
@@ -149,6 +171,14 @@ fn wobble(frames: Res<FrameCount>, mut movers: Query<(&Mover, &mut Transform)>) 
     }
 }
 
+fn drive(frames: Res<FrameCount>, mut cars: Query<(&Car, &mut Transform)>) {
+    let t = frames.0 as f32;
+    for (car, mut transform) in &mut cars {
+        let p = car.start + car.velocity * t;
+        transform.translation = Vec3::new(p.x.rem_euclid(car.side), p.y, p.z.rem_euclid(car.side));
+    }
+}
+
 fn aim_pointer(
     frames: Res<FrameCount>,
     camera: Query<&Transform, With<Camera>>,
@@ -177,7 +207,7 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
     let mut app = plain_bevy_app();
     app.init_resource::<FrameCount>()
         .add_systems(First, count_frame)
-        .add_systems(Update, wobble);
+        .add_systems(Update, (wobble, drive));
     if let Contender::AccelGizmos(_) | Contender::AccelOverlaysOff(_) = contender {
         app.add_plugins(bevy::gizmos::GizmoPlugin);
     }
@@ -248,10 +278,37 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
     }
     app.finish();
     let side = field_side(n);
-    let per_row = (n as f32).sqrt().ceil() as usize;
-    let movers = n * scene.moving_pct as usize / 100;
     let mut class = VisibilityClass::default();
     class.push(TypeId::of::<Drawable>());
+    match scene.layout {
+        Layout::Field => spawn_field(app.world_mut(), &class, n, scene.moving_pct),
+        Layout::City => spawn_city(app.world_mut(), &class, n, side),
+    }
+    let world = app.world_mut();
+    if contender != Contender::Floor {
+        let (transform, frustum) = camera(scene.camera, side);
+        world.spawn((Camera::default(), transform, frustum));
+    }
+    app.update();
+    app
+}
+
+/// What every box of a scene is drawn with.
+fn drawable(class: &VisibilityClass, at: Transform, half: Vec3) -> impl Bundle {
+    (
+        at,
+        Visibility::Visible,
+        class.clone(),
+        Drawable,
+        Aabb::from_min_max(-half, half),
+    )
+}
+
+/// The field: unit boxes on a square 4 units apart with a jitter, `moving_pct` percent of
+/// them (spread over the whole field) wobbling.
+fn spawn_field(world: &mut World, class: &VisibilityClass, n: usize, moving_pct: u32) {
+    let per_row = (n as f32).sqrt().ceil() as usize;
+    let movers = n * moving_pct as usize / 100;
     let mut rng = Rng::new(0xf4a3e);
     let boxes: Vec<(Vec3, f32)> = (0..n)
         .map(|i| {
@@ -263,33 +320,78 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
             (home, rng.range(0.0, std::f32::consts::TAU))
         })
         .collect();
-    let bundle = |home: Vec3| {
-        (
-            Transform::from_translation(home),
-            Visibility::Visible,
-            class.clone(),
-            Drawable,
-            Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5)),
-        )
-    };
-    let world = app.world_mut();
     // Movers spread over the whole field: every `stride`-th box.
     let stride = n.checked_div(movers).unwrap_or(usize::MAX);
     let mut moved = 0;
     for (i, &(home, phase)) in boxes.iter().enumerate() {
+        let bundle = drawable(class, Transform::from_translation(home), Vec3::splat(0.5));
         if moved < movers && i % stride == 0 {
             moved += 1;
-            world.spawn((bundle(home), Mover { home, phase }));
+            world.spawn((bundle, Mover { home, phase }));
         } else {
-            world.spawn(bundle(home));
+            world.spawn(bundle);
         }
     }
-    if contender != Contender::Floor {
-        let (transform, frustum) = camera(scene.camera, side);
-        world.spawn((Camera::default(), transform, frustum));
+}
+
+/// The city on a square of side `side`: four ground tiles, then half the rest buildings
+/// (widths 2 to 24 units, heights 3 to 60, scattered, overlapping where they fall), a
+/// quarter parked props (under a unit) and a quarter cars (2 by 4 units, driving at up to
+/// half a unit a frame along x or z).
+fn spawn_city(world: &mut World, class: &VisibilityClass, n: usize, side: f32) {
+    let mut rng = Rng::new(0xc17e);
+    let tiles = n.min(4);
+    for i in 0..tiles {
+        let centre = Vec3::new(
+            (i % 2) as f32 * side / 2.0 + side / 4.0,
+            -0.5,
+            (i / 2) as f32 * side / 2.0 + side / 4.0,
+        );
+        let half = Vec3::new(side / 4.0, 0.5, side / 4.0);
+        world.spawn((
+            drawable(class, Transform::from_translation(centre), half),
+            AccelStatic,
+        ));
     }
-    app.update();
-    app
+    let rest = n - tiles;
+    let buildings = rest / 2;
+    let props = rest / 4;
+    let cars = rest - buildings - props;
+    for _ in 0..buildings {
+        let half = Vec3::new(
+            rng.log_range(1.0, 12.0),
+            rng.log_range(1.5, 30.0),
+            rng.log_range(1.0, 12.0),
+        );
+        let at = Vec3::new(rng.range(0.0, side), half.y, rng.range(0.0, side));
+        world.spawn((
+            drawable(class, Transform::from_translation(at), half),
+            AccelStatic,
+        ));
+    }
+    for _ in 0..props {
+        let half = Vec3::splat(rng.range(0.15, 0.5));
+        let at = Vec3::new(rng.range(0.0, side), half.y, rng.range(0.0, side));
+        world.spawn(drawable(class, Transform::from_translation(at), half));
+    }
+    for _ in 0..cars {
+        let start = Vec3::new(rng.range(0.0, side), 0.75, rng.range(0.0, side));
+        let speed = rng.range(0.05, 0.5) * if rng.bool() { 1.0 } else { -1.0 };
+        let along_x = rng.bool();
+        let (velocity, half) = if along_x {
+            (Vec3::X * speed, Vec3::new(2.0, 0.75, 1.0))
+        } else {
+            (Vec3::Z * speed, Vec3::new(1.0, 0.75, 2.0))
+        };
+        world.spawn((
+            drawable(class, Transform::from_translation(start), half),
+            Car {
+                start,
+                velocity,
+                side,
+            },
+        ));
+    }
 }
 
 /// Percent of the scene's boxes in view after the app's last frame, by their

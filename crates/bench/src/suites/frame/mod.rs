@@ -10,11 +10,15 @@
 //!   `AccelPickingPlugin`, casting one pointer ray per frame (`AccelRayCast::cast_ray_bounds`),
 //!   the moving entities in the chosen index.
 //!
-//! Scenes: unit boxes on a square field, 4 units apart with a jitter, all of them dynamic (a
-//! user who marks nothing `AccelStatic`); a share of them wobble every frame. Cameras: a
-//! *strategy* camera looking down from above (about 2% of the field in view) and a *ground*
-//! camera at the edge of the field looking across it (about 40%; Bevy does not cull by the
-//! far plane).
+//! Scenes: a *field* of unit boxes on a square, 4 units apart with a jitter, all of them
+//! dynamic (a user who marks nothing `AccelStatic`), a share of them wobbling every frame; and
+//! a *city* on the same square (half the entities buildings of mixed sizes marked
+//! `AccelStatic`, a quarter parked props, a quarter cars driving every frame, four huge
+//! ground tiles), a scene the plugin was not tuned on. Sizes from a thousand entities to a
+//! million. Cameras: a *strategy* camera looking down from above (about 2% of the square in
+//! view) and a *ground* camera at its edge looking across it (about 40%; Bevy does not cull by
+//! the far plane). Run it at several compute-pool sizes with `--compute-threads 1,2`: both
+//! apps get the same pools.
 //!
 //! With `--overlays-off`, each scene also has the BVH app with Bevy's gizmos, and with Bevy's
 //! gizmos and `AccelOverlaysPlugin` with every overlay off: the difference of those two is
@@ -37,15 +41,16 @@ use crate::Options;
 use crate::json::{Point, Report};
 use crate::progress::Progress;
 use crate::timing::median;
-use app::{CameraKind, Contender, Scene, build_app, visible_share};
+use app::{CameraKind, Contender, Layout, Scene, build_app, visible_share};
 use bevy::prelude::*;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
 use std::time::{Duration, Instant};
 
-/// One field size and what runs on it.
+/// One scene size and what runs on it.
 #[derive(Clone, Copy)]
 struct Size {
+    layout: Layout,
     entities: usize,
     indexes: &'static [IndexChoice],
     frames: usize,
@@ -54,14 +59,31 @@ struct Size {
 /// The sizes of one run.
 struct Sizes {
     sizes: &'static [Size],
+    /// The field's shares of movers (the city's are its cars, a quarter).
     moving: &'static [u32],
     cameras: &'static [CameraKind],
     warm_up: usize,
 }
 
+/// The default choice, on scenes where each index is not compared.
+const AUTOMATIC: &[IndexChoice] = &[IndexChoice::Automatic];
+
 const FULL: Sizes = Sizes {
     sizes: &[
         Size {
+            layout: Layout::Field,
+            entities: 1_000,
+            indexes: AUTOMATIC,
+            frames: 100,
+        },
+        Size {
+            layout: Layout::Field,
+            entities: 10_000,
+            indexes: AUTOMATIC,
+            frames: 100,
+        },
+        Size {
+            layout: Layout::Field,
             entities: 100_000,
             indexes: &IndexChoice::ALL,
             frames: 40,
@@ -69,6 +91,7 @@ const FULL: Sizes = Sizes {
         // The octree and the quadtree trail the others at 100k already; 1M of each would
         // double the run.
         Size {
+            layout: Layout::Field,
             entities: 1_000_000,
             indexes: &[
                 IndexChoice::Bvh,
@@ -76,6 +99,30 @@ const FULL: Sizes = Sizes {
                 IndexChoice::BruteForce,
                 IndexChoice::Automatic,
             ],
+            frames: 20,
+        },
+        Size {
+            layout: Layout::City,
+            entities: 1_000,
+            indexes: AUTOMATIC,
+            frames: 100,
+        },
+        Size {
+            layout: Layout::City,
+            entities: 10_000,
+            indexes: AUTOMATIC,
+            frames: 100,
+        },
+        Size {
+            layout: Layout::City,
+            entities: 100_000,
+            indexes: AUTOMATIC,
+            frames: 40,
+        },
+        Size {
+            layout: Layout::City,
+            entities: 1_000_000,
+            indexes: AUTOMATIC,
             frames: 20,
         },
     ],
@@ -86,11 +133,20 @@ const FULL: Sizes = Sizes {
 };
 
 const QUICK: Sizes = Sizes {
-    sizes: &[Size {
-        entities: 10_000,
-        indexes: &[IndexChoice::Bvh, IndexChoice::Grid],
-        frames: 10,
-    }],
+    sizes: &[
+        Size {
+            layout: Layout::Field,
+            entities: 10_000,
+            indexes: &[IndexChoice::Bvh, IndexChoice::Grid],
+            frames: 10,
+        },
+        Size {
+            layout: Layout::City,
+            entities: 10_000,
+            indexes: AUTOMATIC,
+            frames: 10,
+        },
+    ],
     moving: &[0, 10],
     cameras: &[CameraKind::Strategy, CameraKind::Ground],
     warm_up: 10,
@@ -162,11 +218,24 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
         .collect()
 }
 
-/// One scene of `--scene N/PCT/CAMERA[/INDEX]`, and the index asked for with it (its
-/// place in [`IndexChoice::ALL`]). The argument parser calls it to refuse a bad scene early.
+/// One scene of `--scene N/PCT/CAMERA[/INDEX]` (the field) or `city/N/CAMERA[/INDEX]`, and
+/// the index asked for with it (its place in [`IndexChoice::ALL`]). The argument parser calls
+/// it to refuse a bad scene early.
 pub fn parse_scene(text: &str) -> Result<(Scene, Option<usize>), String> {
-    let parts: Vec<&str> = text.split('/').collect();
-    let bad = || format!("--scene wants N/PCT/CAMERA[/INDEX], not {text:?}");
+    let bad =
+        || format!("--scene wants N/PCT/CAMERA[/INDEX] or city/N/CAMERA[/INDEX], not {text:?}");
+    let mut parts: Vec<&str> = text.split('/').collect();
+    let layout = if parts
+        .first()
+        .is_some_and(|p| p.eq_ignore_ascii_case("city"))
+    {
+        parts.remove(0);
+        // The city's movers are its cars, a quarter.
+        parts.insert(1, "25");
+        Layout::City
+    } else {
+        Layout::Field
+    };
     if !(3..=4).contains(&parts.len()) {
         return Err(bad());
     }
@@ -191,6 +260,7 @@ pub fn parse_scene(text: &str) -> Result<(Scene, Option<usize>), String> {
         ),
     };
     let scene = Scene {
+        layout,
         entities,
         moving_pct,
         camera,
@@ -209,13 +279,19 @@ pub fn run(opts: &Options) -> Report {
         let nearest = sizes
             .sizes
             .iter()
-            .min_by_key(|s| s.entities.abs_diff(scene.entities))
+            .min_by_key(|s| {
+                (
+                    s.layout != scene.layout,
+                    s.entities.abs_diff(scene.entities),
+                )
+            })
             .expect("every run has a size");
         let indexes: &'static [IndexChoice] = match index {
             Some(p) => &IndexChoice::ALL[p..=p],
             None => nearest.indexes,
         };
         let size = Size {
+            layout: scene.layout,
             entities: scene.entities,
             indexes,
             frames: nearest.frames,
@@ -223,9 +299,14 @@ pub fn run(opts: &Options) -> Report {
         scenes.push((scene, size));
     } else {
         for size in sizes.sizes {
-            for &moving_pct in sizes.moving {
+            let moving: &[u32] = match size.layout {
+                Layout::Field => sizes.moving,
+                Layout::City => &[25],
+            };
+            for &moving_pct in moving {
                 for &camera in sizes.cameras {
                     let scene = Scene {
+                        layout: size.layout,
                         entities: size.entities,
                         moving_pct,
                         camera,
@@ -239,18 +320,19 @@ pub fn run(opts: &Options) -> Report {
     let mut points: Vec<Point> = Vec::new();
     let mut notes = Vec::new();
     let mut markdown = vec![
-        "| entities | moving | camera | visible (bevy / ours) | floor | bevy | index | accel | \
-         whole frame bevy/accel | over the floor bevy/accel |"
+        "| scene | entities | moving | camera | visible (bevy / ours) | floor | bevy | index | \
+         accel | whole frame bevy/accel | over the floor bevy/accel |"
             .to_string(),
-        "|---:|---:|---|---|---:|---:|---|---:|---:|---:|".to_string(),
+        "|---|---:|---:|---|---|---:|---:|---|---:|---:|---:|".to_string(),
     ];
     for (scene, size) in scenes {
         let Scene {
+            layout,
             entities: n,
             moving_pct: pct,
             camera,
         } = scene;
-        let name = format!("{n} entities, {pct}% moving, {camera:?} camera");
+        let name = format!("{layout:?}, {n} entities, {pct}% moving, {camera:?} camera");
         progress.step(&name);
         let mut contenders = vec![Contender::Floor, Contender::Bevy];
         contenders.extend(size.indexes.iter().map(|&i| Contender::Accel(i)));
@@ -288,8 +370,8 @@ pub fn run(opts: &Options) -> Report {
             };
             let (whole, over_floor) = (bevy / t.frame, over(bevy) / over(t.frame));
             markdown.push(format!(
-                "| {n} | {pct}% | {camera:?} | {bevy_share:.1}% / {:.1}% | {:.2} ms | {:.2} ms | \
-                 {} | {:.2} ms | {whole:.2}x | {over_floor:.2}x |",
+                "| {layout:?} | {n} | {pct}% | {camera:?} | {bevy_share:.1}% / {:.1}% | {:.2} ms | \
+                 {:.2} ms | {} | {:.2} ms | {whole:.2}x | {over_floor:.2}x |",
                 t.visible_pct.unwrap_or(0.0),
                 floor,
                 bevy,
@@ -309,6 +391,13 @@ pub fn run(opts: &Options) -> Report {
     }
     progress.step("done");
     progress.finish();
+    // Every app of the process shares Bevy's pools, made by the first one.
+    if let Some(pool) = bevy::tasks::ComputeTaskPool::try_get() {
+        notes.insert(
+            0,
+            format!("compute threads (every app): {}", pool.thread_num()),
+        );
+    }
     Report {
         suite: "frame".into(),
         quick,
