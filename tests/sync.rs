@@ -13,16 +13,12 @@ use core::ops::ControlFlow;
 
 mod common;
 use accel_testkit::Rng;
+use common::{bvh, check_consistency};
 
 fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin::default()));
     app
-}
-
-/// The dynamic BVH, where the automatic choice (the default) keeps a scene this small.
-fn bvh(trees: &AccelTrees) -> &DynamicBvh {
-    trees.dynamic_bvh().expect("the BVH is the default index")
 }
 
 /// The scenario below moves static entities too, so it asks the plugin to watch them.
@@ -51,113 +47,6 @@ fn app_watching_statics(
 
 fn unit_aabb() -> Aabb {
     Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
-}
-
-/// Every entity that should be tracked is, with a tree box containing its world box; nothing
-/// else is; the trees are valid.
-fn check_consistency(app: &mut App) {
-    let world = app.world_mut();
-    let mut q = world.query_filtered::<(Entity, &Aabb, &GlobalTransform), Without<AccelIgnore>>();
-    let mut expected = EntityHashSet::default();
-    let boxes: Vec<(Entity, bevy_accel::spatial_accel::Aabb)> = q
-        .iter(world)
-        .filter_map(|(e, aabb, gt)| {
-            let a = gt.affine();
-            let ok = a.matrix3.determinant().is_finite()
-                && a.matrix3.determinant() != 0.0
-                && a.translation.is_finite();
-            ok.then(|| {
-                (
-                    e,
-                    bevy_accel::spatial_accel::Aabb::from_center_half_extents(
-                        aabb.center,
-                        aabb.half_extents,
-                    )
-                    .transformed(&a),
-                )
-            })
-        })
-        .collect();
-    for (e, _) in &boxes {
-        expected.insert(*e);
-    }
-    let trees = world.resource::<AccelTrees>();
-    let tracked: EntityHashSet = trees.iter().map(|(e, _)| e).collect();
-    assert_eq!(tracked.len(), trees.len());
-    assert_eq!(tracked, expected, "tracked set differs from the ECS");
-    if let Some(tree) = trees.dynamic_bvh() {
-        tree.validate().unwrap();
-    }
-    for (e, world_box) in boxes {
-        let (slot, tree) = trees.location(e).unwrap();
-        assert_eq!(trees.entity(slot), Some(e));
-        match tree {
-            TreeSlot::Dynamic(AnyHandle::DynamicBvh(h))
-            | TreeSlot::StaticWaiting(AnyHandle::DynamicBvh(h)) => {
-                let fat = bvh(trees).fat_bounds(h).unwrap();
-                assert!(
-                    fat.contains_aabb(&world_box),
-                    "{e}: fat box {fat:?} misses {world_box:?}"
-                );
-            }
-            TreeSlot::Dynamic(_) | TreeSlot::StaticWaiting(_) | TreeSlot::Static => {
-                assert_eq!(trees.world_bounds(slot), world_box)
-            }
-            TreeSlot::Busy => {
-                assert!(trees.is_busy(slot));
-                assert!(trees.local_frame(slot).is_none());
-                assert_eq!(trees.world_bounds(slot), world_box);
-                let entry = trees
-                    .query()
-                    .busy_movers()
-                    .get(e.index_u32(), e.generation().to_bits())
-                    .expect("a busy mover has its entry");
-                assert_eq!(entry.id, slot);
-            }
-        }
-        // Whatever the index, a query over the entity's box reports its slot, once.
-        let mut seen = 0;
-        trees.query().for_each_overlapping_aabb(&world_box, |s| {
-            seen += usize::from(s == slot);
-            ControlFlow::Continue(())
-        });
-        assert_eq!(seen, 1, "{e}: its own box query saw it {seen} times");
-    }
-    // Every slot the static tree returns is a tracked static entity's, or a cleared slot (a
-    // static entity that left since the tree was built), and holds every static entity.
-    let mut held_static = 0;
-    for &slot in trees.static_tree().primitive_indices() {
-        if let Some(e) = trees.entity(slot) {
-            assert_eq!(trees.location(e), Some((slot, TreeSlot::Static)), "{e}");
-            held_static += 1;
-        } else {
-            assert_eq!(
-                trees.world_bounds(slot),
-                bevy_accel::spatial_accel::Aabb::EMPTY
-            );
-        }
-    }
-    trees.query().busy_movers().validate().unwrap();
-    let busy = trees
-        .iter()
-        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Busy)
-        .count();
-    assert_eq!(
-        trees.busy_len(),
-        busy,
-        "busy movers listed but not tracked as such"
-    );
-    let n_static = trees
-        .iter()
-        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static)
-        .count();
-    let n_waiting = trees
-        .iter()
-        .filter(|(e, _)| matches!(trees.location(*e).unwrap().1, TreeSlot::StaticWaiting(_)))
-        .count();
-    assert_eq!(held_static, n_static);
-    assert_eq!(trees.static_len(), n_static + n_waiting);
-    assert_eq!(trees.static_waiting_len(), n_waiting);
 }
 
 #[test]

@@ -13,7 +13,7 @@
 use super::{AccelTrees, LocalFrame, Placed, SlotEntry, TreeSlot};
 use bevy::prelude::*;
 use spatial_accel::Aabb;
-use spatial_accel::query::AnyHandle;
+use spatial_accel::query::{AnyHandle, ConcurrentMoves};
 
 /// Whether movers may become busy movers (see [`BusyMoverSettings`]).
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -159,6 +159,14 @@ impl AccelTrees {
         })
     }
 
+    /// The busy movers open to moves from several threads at once (see [`BusyMoves`]).
+    pub(crate) fn concurrent_busy_moves(&mut self) -> BusyMoves<'_> {
+        BusyMoves {
+            stamp: self.busy.stamp,
+            moves: self.index.busy_movers_mut().concurrent_moves(),
+        }
+    }
+
     /// Moves a dynamic entity out of the dynamic index into the busy movers, with its new
     /// box. `None` when the list refused it (the caller updates it in the index instead).
     pub(super) fn make_busy(
@@ -276,5 +284,30 @@ impl AccelTrees {
             }
         }
         settled
+    }
+}
+
+/// [`AccelTrees::move_busy`] from several threads at once: the sync's moves of busy movers,
+/// spread over the compute pool, each thread writing the entries of the entities it met.
+pub(crate) struct BusyMoves<'a> {
+    moves: ConcurrentMoves<'a>,
+    stamp: u32,
+}
+
+impl BusyMoves<'_> {
+    /// Gives a busy mover its new box, as [`AccelTrees::move_busy`] does; `None` when the
+    /// entity is not a busy mover (the caller places it in the trees afterwards).
+    ///
+    /// # Safety
+    /// While this view lives, no two calls (on any threads) may name the same entity.
+    #[inline]
+    pub(crate) unsafe fn move_busy(&self, entity: Entity, bounds: Aabb) -> Option<Placed> {
+        // SAFETY: entities of one index are one entity (a live index has one generation), so
+        // the caller's distinct entities are distinct keys.
+        let moved = unsafe {
+            self.moves
+                .set_bounds(entity.index_u32(), busy_tag(entity), bounds, self.stamp)
+        }?;
+        Some(if moved { Placed::Moved } else { Placed::Same })
     }
 }

@@ -6,8 +6,15 @@
 #[cfg(feature = "light_culling")]
 pub use accel_testkit::bevy_apps::add_lights;
 pub use accel_testkit::bevy_apps::{grid_point, plain_bevy_app};
+use bevy::camera::primitives::Aabb;
+use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
+use bevy_accel::TreeSlot;
 use bevy_accel::prelude::*;
+use bevy_accel::spatial_accel::SpatialQuery;
+use bevy_accel::spatial_accel::dynamic::DynamicBvh;
+use bevy_accel::spatial_accel::query::AnyHandle;
+use core::ops::ControlFlow;
 
 /// A headless app with the trees and what Bevy's visibility needs: no window, no renderer
 /// ([`plain_bevy_app`] with `AccelPlugin`). Not finished: add the plugins under test, then
@@ -40,4 +47,116 @@ pub fn entities_whose_box(
         .collect();
     found.sort_unstable();
     found
+}
+
+/// The dynamic BVH, where the automatic choice (the default) keeps a scene this small.
+pub fn bvh(trees: &AccelTrees) -> &DynamicBvh {
+    trees.dynamic_bvh().expect("the BVH is the default index")
+}
+
+/// Every entity that should be tracked is, with a tree box containing its world box; nothing
+/// else is; the trees are valid.
+pub fn check_consistency(app: &mut App) {
+    let world = app.world_mut();
+    let mut q = world.query_filtered::<(Entity, &Aabb, &GlobalTransform), Without<AccelIgnore>>();
+    let mut expected = EntityHashSet::default();
+    let boxes: Vec<(Entity, bevy_accel::spatial_accel::Aabb)> = q
+        .iter(world)
+        .filter_map(|(e, aabb, gt)| {
+            let a = gt.affine();
+            let ok = a.matrix3.determinant().is_finite()
+                && a.matrix3.determinant() != 0.0
+                && a.translation.is_finite();
+            ok.then(|| {
+                (
+                    e,
+                    bevy_accel::spatial_accel::Aabb::from_center_half_extents(
+                        aabb.center,
+                        aabb.half_extents,
+                    )
+                    .transformed(&a),
+                )
+            })
+        })
+        .collect();
+    for (e, _) in &boxes {
+        expected.insert(*e);
+    }
+    let trees = world.resource::<AccelTrees>();
+    let tracked: EntityHashSet = trees.iter().map(|(e, _)| e).collect();
+    assert_eq!(tracked.len(), trees.len());
+    assert_eq!(tracked, expected, "tracked set differs from the ECS");
+    if let Some(tree) = trees.dynamic_bvh() {
+        tree.validate().unwrap();
+    }
+    for (e, world_box) in boxes {
+        let (slot, tree) = trees.location(e).unwrap();
+        assert_eq!(trees.entity(slot), Some(e));
+        match tree {
+            TreeSlot::Dynamic(AnyHandle::DynamicBvh(h))
+            | TreeSlot::StaticWaiting(AnyHandle::DynamicBvh(h)) => {
+                let fat = bvh(trees).fat_bounds(h).unwrap();
+                assert!(
+                    fat.contains_aabb(&world_box),
+                    "{e}: fat box {fat:?} misses {world_box:?}"
+                );
+            }
+            TreeSlot::Dynamic(_) | TreeSlot::StaticWaiting(_) | TreeSlot::Static => {
+                assert_eq!(trees.world_bounds(slot), world_box)
+            }
+            TreeSlot::Busy => {
+                assert!(trees.is_busy(slot));
+                assert!(trees.local_frame(slot).is_none());
+                assert_eq!(trees.world_bounds(slot), world_box);
+                let entry = trees
+                    .query()
+                    .busy_movers()
+                    .get(e.index_u32(), e.generation().to_bits())
+                    .expect("a busy mover has its entry");
+                assert_eq!(entry.id, slot);
+            }
+        }
+        // Whatever the index, a query over the entity's box reports its slot, once.
+        let mut seen = 0;
+        trees.query().for_each_overlapping_aabb(&world_box, |s| {
+            seen += usize::from(s == slot);
+            ControlFlow::Continue(())
+        });
+        assert_eq!(seen, 1, "{e}: its own box query saw it {seen} times");
+    }
+    // Every slot the static tree returns is a tracked static entity's, or a cleared slot (a
+    // static entity that left since the tree was built), and holds every static entity.
+    let mut held_static = 0;
+    for &slot in trees.static_tree().primitive_indices() {
+        if let Some(e) = trees.entity(slot) {
+            assert_eq!(trees.location(e), Some((slot, TreeSlot::Static)), "{e}");
+            held_static += 1;
+        } else {
+            assert_eq!(
+                trees.world_bounds(slot),
+                bevy_accel::spatial_accel::Aabb::EMPTY
+            );
+        }
+    }
+    trees.query().busy_movers().validate().unwrap();
+    let busy = trees
+        .iter()
+        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Busy)
+        .count();
+    assert_eq!(
+        trees.busy_len(),
+        busy,
+        "busy movers listed but not tracked as such"
+    );
+    let n_static = trees
+        .iter()
+        .filter(|(e, _)| trees.location(*e).unwrap().1 == TreeSlot::Static)
+        .count();
+    let n_waiting = trees
+        .iter()
+        .filter(|(e, _)| matches!(trees.location(*e).unwrap().1, TreeSlot::StaticWaiting(_)))
+        .count();
+    assert_eq!(held_static, n_static);
+    assert_eq!(trees.static_len(), n_static + n_waiting);
+    assert_eq!(trees.static_waiting_len(), n_waiting);
 }

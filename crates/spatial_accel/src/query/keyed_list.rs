@@ -149,6 +149,18 @@ impl KeyedList {
         true
     }
 
+    /// A view through which several threads give entries new boxes at once (see
+    /// [`ConcurrentMoves`]); the list is borrowed, so no entry is added or taken out
+    /// meanwhile.
+    pub fn concurrent_moves(&mut self) -> ConcurrentMoves<'_> {
+        ConcurrentMoves {
+            position_by_key: &self.position_by_key,
+            entries: self.entries.as_mut_ptr(),
+            len: self.entries.len(),
+            _list: core::marker::PhantomData,
+        }
+    }
+
     /// Takes out the entry of `key` with `tag`, moving the last entry into its place.
     pub fn remove(&mut self, key: u32, tag: u32) -> Option<KeyedEntry> {
         let p = self.position(key, tag)?;
@@ -225,6 +237,62 @@ impl KeyedList {
 
     fn boxes(&self) -> impl Iterator<Item = (u32, &Aabb)> {
         self.entries.iter().map(|e| (e.id, &e.bounds))
+    }
+}
+
+/// [`KeyedList::set_bounds`] for many objects at once, from several threads: each thread
+/// finds and writes the entries of its own keys.
+///
+/// Why: a frame's moves of the objects in the list are independent writes of separate
+/// entries, and a caller that reads the objects' new boxes in parallel (an ECS's parallel
+/// query) should not have to gather them for one thread to write. Each call reads the key's
+/// position and writes only that key's entry, so calls for distinct keys touch distinct
+/// memory; the caller promises the keys are distinct (an entity's index is, within one pass
+/// over the entities).
+pub struct ConcurrentMoves<'a> {
+    position_by_key: &'a [u32],
+    entries: *mut KeyedEntry,
+    len: usize,
+    _list: core::marker::PhantomData<&'a mut [KeyedEntry]>,
+}
+
+// SAFETY: the view holds the list's exclusive borrow; shared between threads it allows only
+// `set_bounds`, whose contract keeps any two concurrent calls on distinct entries.
+unsafe impl Send for ConcurrentMoves<'_> {}
+// SAFETY: as for `Send`.
+unsafe impl Sync for ConcurrentMoves<'_> {}
+
+impl ConcurrentMoves<'_> {
+    /// Gives the entry of `key`, if it has one with `tag`, a new box and stamp, as
+    /// [`KeyedList::set_bounds`] does: `Some(true)` when the box changed, `Some(false)` when
+    /// it held still, `None` when the key has no entry with that tag. The box must be valid
+    /// and finite.
+    ///
+    /// # Safety
+    /// While this view lives, no two calls (on any threads) may name the same `key`.
+    #[inline]
+    pub unsafe fn set_bounds(&self, key: u32, tag: u32, bounds: Aabb, stamp: u32) -> Option<bool> {
+        debug_assert!(bounds.is_valid() && bounds.is_finite());
+        let p = *self.position_by_key.get(key as usize)?;
+        if p == ABSENT {
+            return None;
+        }
+        let p = p as usize;
+        assert!(p < self.len, "a key's position lies in the list");
+        // SAFETY: `p` is in bounds (checked above) of the entries the view borrows
+        // exclusively, and no position is shared between keys (the list's invariant), so
+        // with the caller's promise of distinct keys no other call reads or writes this
+        // entry while this one runs.
+        let entry = unsafe { &mut *self.entries.add(p) };
+        if entry.tag != tag {
+            return None;
+        }
+        if entry.bounds == bounds {
+            return Some(false);
+        }
+        entry.bounds = bounds;
+        entry.stamp = stamp;
+        Some(true)
     }
 }
 
@@ -321,5 +389,47 @@ mod tests {
         assert!(list.set_bounds(at, unit_at(40.0), 5));
         assert_eq!(list.entries()[at].stamp, 5);
         assert_eq!(list.len(), 8);
+    }
+
+    #[test]
+    fn concurrent_moves_write_each_key_once_from_several_threads() {
+        let mut list = KeyedList::new();
+        for key in 0..1000u32 {
+            list.insert(key, key % 7, key + 5, unit_at(0.0), 0).unwrap();
+        }
+        list.remove(500, 500 % 7).unwrap();
+        let mut serial = list.clone();
+        let moves = list.concurrent_moves();
+        let results: Vec<Vec<Option<bool>>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..4u32)
+                .map(|t| {
+                    let moves = &moves;
+                    scope.spawn(move || {
+                        (t * 250..(t + 1) * 250)
+                            .map(|key| {
+                                // Every third key keeps its box; key 500 has no entry, and
+                                // the wrong tag finds none.
+                                let x = if key % 3 == 0 { 0.0 } else { key as f32 };
+                                let tag = if key == 999 { 0 } else { key % 7 };
+                                // SAFETY: each thread names its own range of keys, once each.
+                                unsafe { moves.set_bounds(key, tag, unit_at(x), 9) }
+                            })
+                            .collect()
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let results: Vec<Option<bool>> = results.into_iter().flatten().collect();
+        for (key, got) in (0..1000u32).zip(results) {
+            let tag = if key == 999 { 0 } else { key % 7 };
+            let want = serial.position(key, tag).map(|at| {
+                let x = if key % 3 == 0 { 0.0 } else { key as f32 };
+                serial.set_bounds(at, unit_at(x), 9)
+            });
+            assert_eq!(got, want, "key {key}");
+        }
+        assert_eq!(list.entries(), serial.entries());
+        list.validate().unwrap();
     }
 }

@@ -46,7 +46,7 @@ pub use dynamic_index::{DynamicIndex, IndexError, IndexStats, UpkeepReport};
 pub use handle::Handle;
 pub use index_advisor::{IndexAdvice, IndexAdvisor, IndexWorkload};
 pub use index_choice::{AnyHandle, AnyIndex, IndexKind};
-pub use keyed_list::{KeyedEntry, KeyedList};
+pub use keyed_list::{ConcurrentMoves, KeyedEntry, KeyedList};
 pub use nodes::{NodeView, visit_tree_nodes};
 pub(crate) use nodes::{count as node_entry_count, visit_levels};
 pub use ray_walk::RayWalk;

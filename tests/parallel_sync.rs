@@ -1,0 +1,73 @@
+//! The sync on a compute pool of several threads: busy movers' moves written from every
+//! thread, the other moved entities placed after, checked against the ECS every frame. A
+//! process of its own, so that its pool has the threads it asks for.
+
+use bevy::camera::primitives::Aabb;
+use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
+use bevy_accel::prelude::*;
+
+mod common;
+use accel_testkit::Rng;
+use common::check_consistency;
+
+#[test]
+fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
+    // Made before the app, which then keeps it (Bevy makes its pools once per process).
+    let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
+    assert_eq!(pool.thread_num(), 4);
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin))
+        .add_plugins(AccelPlugin {
+            settings: AccelSettings {
+                busy_movers: BusyMoverSettings {
+                    mode: BusyMovers::On,
+                    ..default()
+                },
+                ..default()
+            },
+        });
+    let unit = Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5));
+    let mut rng = Rng::from_state(21);
+    let mut movers: Vec<Entity> = (0..12_000)
+        .map(|_| {
+            app.world_mut()
+                .spawn((Transform::from_translation(rng.vec3(-200.0, 200.0)), unit))
+                .id()
+        })
+        .collect();
+    let mut most_busy = 0;
+    let mut busy_moves = 0;
+    for frame in 0..40 {
+        let world = app.world_mut();
+        // Most move every frame; some hold still (their box unchanged), a few get a bad
+        // transform for a while, some leave and newcomers arrive.
+        for (i, &e) in movers.iter().enumerate() {
+            let mut t = world.get_mut::<Transform>(e).unwrap();
+            match i % 100 {
+                0 if frame % 10 == 3 => t.scale = Vec3::ZERO,
+                0 if frame % 10 == 6 => t.scale = Vec3::ONE,
+                1 => t.set_changed(),
+                _ => t.translation += Vec3::from(rng.vec3a(-1.0, 1.0)),
+            }
+        }
+        if frame % 5 == 4 {
+            for _ in 0..200 {
+                let i = rng.below(movers.len());
+                world.despawn(movers.swap_remove(i));
+            }
+            for _ in 0..200 {
+                let t = Transform::from_translation(rng.vec3(-200.0, 200.0));
+                movers.push(world.spawn((t, unit)).id());
+            }
+        }
+        app.update();
+        check_consistency(&mut app);
+        let stats = app.world().resource::<AccelStats>();
+        most_busy = most_busy.max(stats.busy_movers);
+        busy_moves += stats.busy_moved;
+    }
+    // Enough busy movers for the threads to take their moves, for most of the run.
+    assert!(most_busy > 10_000, "{most_busy} busy movers at most");
+    assert!(busy_moves > 300_000, "{busy_moves} busy moves");
+}
