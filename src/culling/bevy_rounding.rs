@@ -13,7 +13,7 @@
 
 use crate::trees::AccelTrees;
 use bevy::math::{Vec3A, Vec4};
-use spatial_accel::SpatialQuery;
+use bevy::tasks::ComputeTaskPool;
 use spatial_accel::query::views::ViewClassification;
 use spatial_accel::{Aabb, Containment, Frustum};
 
@@ -32,35 +32,93 @@ pub(crate) fn classify_for_bevy(frustum: &Frustum, b: &Aabb) -> Containment {
     frustum.classify_aabb(&grown_past_rounding(b))
 }
 
+/// Which of the trees' layers a frustum walk covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum WalkedLayers {
+    /// The static tree, the dynamic index and the busy movers.
+    All,
+    /// The static tree and the dynamic index, not the busy movers: for a walk whose finds
+    /// among them would be thrown away (the flat pass gives every busy mover Bevy's test).
+    TreesOnly,
+}
+
 /// Calls `visit(slot, containment)` for each slot whose tree box the frustum does not drop,
 /// with `Inside` where a whole subtree was accepted ([`classify_for_bevy`] at every node).
+/// The busy movers (with [`WalkedLayers::All`]) come last, tested on every thread of the
+/// compute pool when they are many.
 pub(crate) fn walk_frustum_for_bevy(
     trees: &AccelTrees,
     frustum: &Frustum,
+    layers: WalkedLayers,
     mut visit: impl FnMut(u32, Containment),
 ) {
-    trees.query().for_each_in_views(
-        1,
-        |b, _| match classify_for_bevy(frustum, b) {
-            Containment::Inside => ViewClassification {
-                inside: 1,
-                outside: 0,
-            },
-            Containment::Outside => ViewClassification {
-                inside: 0,
-                outside: 1,
-            },
-            Containment::Intersecting => ViewClassification::default(),
+    let classify = |b: &Aabb, _| match classify_for_bevy(frustum, b) {
+        Containment::Inside => ViewClassification {
+            inside: 1,
+            outside: 0,
         },
-        |slot, masks| {
+        Containment::Outside => ViewClassification {
+            inside: 0,
+            outside: 1,
+        },
+        Containment::Intersecting => ViewClassification::default(),
+    };
+    trees
+        .query()
+        .for_each_in_views_of_trees(1, classify, |slot, masks| {
             let containment = if masks.inside != 0 {
                 Containment::Inside
             } else {
                 Containment::Intersecting
             };
             visit(slot, containment);
-        },
-    );
+        });
+    if layers == WalkedLayers::All {
+        walk_busy_movers_for_bevy(trees, frustum, visit);
+    }
+}
+
+/// From this many busy movers, with more than one compute thread, a view's test of them is
+/// split across the pool.
+const PARALLEL_BUSY_FROM: usize = 16_384;
+
+/// The busy movers' part of [`walk_frustum_for_bevy`]: every entry classified, in parts on
+/// the compute pool when the list is long (a view tests every busy mover, and the tests are
+/// independent), the finds handed to `visit` in the list's order either way.
+fn walk_busy_movers_for_bevy(
+    trees: &AccelTrees,
+    frustum: &Frustum,
+    mut visit: impl FnMut(u32, Containment),
+) {
+    let entries = trees.query().busy_movers().entries();
+    let pool = ComputeTaskPool::try_get()
+        .filter(|pool| pool.thread_num() > 1 && entries.len() >= PARALLEL_BUSY_FROM);
+    let Some(pool) = pool else {
+        for entry in entries {
+            match classify_for_bevy(frustum, &entry.bounds) {
+                Containment::Outside => {}
+                containment => visit(entry.id, containment),
+            }
+        }
+        return;
+    };
+    let part = entries.len().div_ceil(pool.thread_num() * 4);
+    let parts: Vec<Vec<(u32, Containment)>> = pool.scope(|scope| {
+        for chunk in entries.chunks(part) {
+            scope.spawn(async move {
+                chunk
+                    .iter()
+                    .filter_map(|entry| match classify_for_bevy(frustum, &entry.bounds) {
+                        Containment::Outside => None,
+                        containment => Some((entry.id, containment)),
+                    })
+                    .collect()
+            });
+        }
+    });
+    for (slot, containment) in parts.into_iter().flatten() {
+        visit(slot, containment);
+    }
 }
 
 /// A half-space of a Bevy frustum as the trees must test it to keep every entity Bevy's

@@ -165,6 +165,17 @@ impl EntityIndex {
         }
     }
 
+    /// [`SpatialQuery::for_each_in_views`] over the static tree and the dynamic index only,
+    /// without the busy movers: for callers that test the list their own way.
+    #[cfg_attr(not(feature = "culling"), allow(dead_code))]
+    pub(crate) fn for_each_in_views_of_trees<C, F>(&self, views: u32, mut classify: C, mut visit: F)
+    where
+        C: FnMut(&Aabb, u32) -> ViewClassification,
+        F: FnMut(u32, ViewMasks),
+    {
+        on_layers!(self, layers => layers.for_each_in_views(views, &mut classify, &mut visit));
+    }
+
     /// The busy movers: entities that moved in each of the last frames, kept flat out of
     /// the dynamic index (see [`BusyMoverSettings`](crate::BusyMoverSettings)). Their ids
     /// are slots; their keys, entity indices.

@@ -6,7 +6,7 @@ use super::table_rows::SlotRows;
 use super::tree_verdicts::TreeVerdicts;
 use super::view_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
 use super::view_walk::{ViewWalk, WalkForm};
-use crate::culling::bevy_rounding::{tree_plane, walk_frustum_for_bevy};
+use crate::culling::bevy_rounding::{WalkedLayers, tree_plane, walk_frustum_for_bevy};
 use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::{ClassLists, sort_visible};
 use crate::culling::slot_order::FoundSlots;
@@ -152,9 +152,12 @@ pub(crate) fn cull_views_with_trees(
                     s.reused_walks += 1;
                 } else {
                     walk.restart(planes, WalkForm::Bits);
+                    // Bevy's test decides the busy movers on this pass (see
+                    // `TreeVerdicts`): the walk leaves them out.
                     walk_frustum_for_bevy(
                         &trees,
                         &AccelFrustum::from_planes(planes),
+                        WalkedLayers::TreesOnly,
                         |slot, containment| match containment {
                             Containment::Inside => walk.inside_bits.insert(slot),
                             _ => walk.crossing_bits.insert(slot),
@@ -228,6 +231,7 @@ pub(crate) fn cull_views_with_trees(
                 walk_frustum_for_bevy(
                     &trees,
                     &AccelFrustum::from_planes(planes),
+                    WalkedLayers::All,
                     |slot, containment| found.push(slot, containment != Containment::Inside),
                 );
                 Some(FreshFinds {

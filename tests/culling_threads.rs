@@ -1,0 +1,165 @@
+//! Culling on a compute pool of four threads against Bevy's own culling on the same pool:
+//! many busy movers (their frustum test split across the pool), a narrow view on the tree
+//! path and a wide one on the flat pass. A process of its own, so that its pool has the
+//! threads it asks for.
+
+use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::camera::visibility::{VisibilityClass, VisibleEntities};
+use bevy::math::primitives::ViewFrustum;
+use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
+use bevy_accel::prelude::*;
+
+mod common;
+use accel_testkit::Rng;
+use common::headless_app;
+use std::any::TypeId;
+
+#[derive(Component, Default)]
+struct Drawable;
+
+/// Which of the test's cameras a view is.
+#[derive(Component)]
+struct ViewIndex(usize);
+
+/// A box wobbling round `home` every frame.
+#[derive(Component)]
+struct Wobble {
+    home: Vec3,
+    phase: f32,
+}
+
+#[derive(Resource, Default)]
+struct Frame(f32);
+
+fn wobble(mut frame: ResMut<Frame>, mut boxes: Query<(&Wobble, &mut Transform)>) {
+    frame.0 += 1.0;
+    for (w, mut t) in &mut boxes {
+        let a = frame.0 * 0.3 + w.phase;
+        t.translation = w.home + Vec3::new(a.sin(), 0.0, a.cos()) * 2.0;
+    }
+}
+
+fn app(ours: bool) -> App {
+    let mut app = headless_app();
+    if ours {
+        app.insert_resource(AccelSettings {
+            busy_movers: BusyMoverSettings {
+                mode: BusyMovers::On,
+                ..default()
+            },
+            ..default()
+        })
+        .add_plugins(AccelCullingPlugin);
+    }
+    app.init_resource::<Frame>().add_systems(Update, wobble);
+    app.finish();
+    app
+}
+
+fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
+    let view = Mat4::look_at_rh(eye, target, Vec3::Y);
+    let proj = Mat4::perspective_infinite_reverse_rh(fov, 1.5, 0.1);
+    Frustum(ViewFrustum::from_clip_from_world(&(proj * view)))
+}
+
+fn populate(app: &mut App) -> Vec<Entity> {
+    let mut rng = Rng::from_state(5);
+    let mut class = VisibilityClass::default();
+    class.push(TypeId::of::<Drawable>());
+    let world = app.world_mut();
+    let hidden = world.spawn((Transform::default(), Visibility::Hidden)).id();
+    let entities = (0..24_000)
+        .map(|i| {
+            let home = rng.vec3(-300.0, 300.0);
+            let half = Vec3::splat(rng.range(0.2, 2.0));
+            let mut e = world.spawn((
+                Transform::from_translation(home),
+                Visibility::Inherited,
+                class.clone(),
+                Drawable,
+                Aabb::from_min_max(-half, half),
+            ));
+            match i % 10 {
+                0 => {
+                    e.insert(AccelStatic);
+                }
+                1 => {
+                    e.insert(ChildOf(hidden));
+                }
+                _ => {
+                    e.insert(Wobble {
+                        home,
+                        phase: rng.range(0.0, 6.0),
+                    });
+                }
+            }
+            e.id()
+        })
+        .collect();
+    // A narrow view (the tree path) and one that sees most of the world (the flat pass).
+    world.spawn((
+        Camera::default(),
+        ViewIndex(0),
+        frustum(Vec3::new(0.0, 0.0, 320.0), Vec3::ZERO, 0.3),
+    ));
+    world.spawn((
+        Camera::default(),
+        ViewIndex(1),
+        frustum(Vec3::new(0.0, 0.0, 600.0), Vec3::ZERO, 1.6),
+    ));
+    entities
+}
+
+/// Per view, the visible entities as indices into the spawn order.
+fn visible_sets(app: &mut App, entities: &[Entity]) -> Vec<Vec<usize>> {
+    let index: std::collections::HashMap<Entity, usize> =
+        entities.iter().enumerate().map(|(i, e)| (*e, i)).collect();
+    let world = app.world_mut();
+    let mut views = world.query::<(&ViewIndex, &VisibleEntities)>();
+    let mut views: Vec<(&ViewIndex, &VisibleEntities)> = views.iter(world).collect();
+    views.sort_by_key(|(i, _)| i.0);
+    views
+        .into_iter()
+        .map(|(_, v)| {
+            let mut l: Vec<usize> = v
+                .get(TypeId::of::<Drawable>())
+                .iter()
+                .map(|e| index[e])
+                .collect();
+            l.sort_unstable();
+            l
+        })
+        .collect()
+}
+
+#[test]
+fn busy_movers_culled_on_four_threads_equal_bevys() {
+    // Made before the apps, which then keep it (Bevy makes its pools once per process).
+    let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
+    assert_eq!(pool.thread_num(), 4);
+    let (mut bevy_app, mut accel_app) = (app(false), app(true));
+    let a = populate(&mut bevy_app);
+    let b = populate(&mut accel_app);
+    let mut most_busy = 0;
+    let mut flat_views = 0;
+    for frame in 0..8 {
+        bevy_app.update();
+        accel_app.update();
+        let (want, got) = (
+            visible_sets(&mut bevy_app, &a),
+            visible_sets(&mut accel_app, &b),
+        );
+        assert!(
+            want[0].len() > 100 && want[1].len() > 10_000,
+            "{}, {}",
+            want[0].len(),
+            want[1].len()
+        );
+        assert_eq!(want, got, "frame {frame}");
+        most_busy = most_busy.max(accel_app.world().resource::<AccelStats>().busy_movers);
+        flat_views += accel_app.world().resource::<CullingStats>().flat_views;
+    }
+    assert!(most_busy > 16_384, "{most_busy} busy movers at most");
+    assert!(flat_views > 0, "the wide view never took the flat pass");
+}
