@@ -2,14 +2,10 @@
 //! frame after frame, checked against the ECS after every frame.
 
 use bevy::camera::primitives::Aabb;
-use bevy::ecs::entity::EntityHashSet;
 use bevy::prelude::*;
 use bevy_accel::TreeSlot;
 use bevy_accel::prelude::*;
 use bevy_accel::spatial_accel::SpatialQuery;
-use bevy_accel::spatial_accel::dynamic::DynamicBvh;
-use bevy_accel::spatial_accel::query::AnyHandle;
-use core::ops::ControlFlow;
 
 mod common;
 use accel_testkit::Rng;
