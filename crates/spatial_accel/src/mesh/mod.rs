@@ -7,6 +7,10 @@
 //!   ([`MeshBvh::cast_ray_counted`], [`InstancedScene::cast_ray_counted`]) for heat maps.
 //! - [`InstancedScene`]: instances of shared meshes under transforms, under a top-level BVH,
 //!   updated in place as instances move ([`InstancedScene::update_instances`]).
+//! - Skinned and morphed meshes, picked where they are drawn: [`skin_positions`] and
+//!   [`morph_positions`] pose a mesh's vertices as Bevy's vertex shader does (from
+//!   [`SkinnedVertices`], [`MorphTargets`] and the skin's [`joint_matrices`]), failing with a
+//!   [`SkinningError`].
 
 mod counted;
 mod hit;
@@ -18,6 +22,7 @@ mod sbvh;
 mod sbvh_spatial;
 mod scene;
 mod scene_update;
+mod skinning;
 
 pub use counted::{CountedHit, TraversalCost};
 pub use hit::MeshHit;
@@ -26,3 +31,7 @@ pub use sbvh::SpatialSplits;
 pub use scene::{Instance, InstanceHit, InstancedScene};
 pub(crate) use scene::{instance_world_box, is_placeable};
 pub use scene_update::SceneUpdateError;
+pub use skinning::{
+    MorphTargets, SkinnedVertices, SkinningError, SkinningInput, joint_matrices, morph_positions,
+    skin_positions,
+};
