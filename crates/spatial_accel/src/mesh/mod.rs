@@ -10,7 +10,8 @@
 //! - Skinned and morphed meshes, picked where they are drawn: [`skin_positions`] and
 //!   [`morph_positions`] pose a mesh's vertices as Bevy's vertex shader does (from
 //!   [`SkinnedVertices`], [`MorphTargets`] and the skin's [`joint_matrices`]), failing with a
-//!   [`SkinningError`].
+//!   [`SkinningError`]; [`SkinBounds`] bounds a pose from the joints alone, for a broad
+//!   phase that skins only the meshes a ray may hit.
 
 mod counted;
 mod hit;
@@ -22,6 +23,7 @@ mod sbvh;
 mod sbvh_spatial;
 mod scene;
 mod scene_update;
+mod skin_bounds;
 mod skinning;
 
 pub use counted::{CountedHit, TraversalCost};
@@ -31,6 +33,7 @@ pub use sbvh::SpatialSplits;
 pub use scene::{Instance, InstanceHit, InstancedScene};
 pub(crate) use scene::{instance_world_box, is_placeable};
 pub use scene_update::SceneUpdateError;
+pub use skin_bounds::SkinBounds;
 pub use skinning::{
     MorphTargets, SkinnedVertices, SkinningError, SkinningInput, joint_matrices, morph_positions,
     skin_positions,

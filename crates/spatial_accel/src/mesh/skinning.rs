@@ -52,7 +52,7 @@ pub enum SkinningError {
         vertex: usize,
     },
     /// A bound of the posed mesh is not finite (see
-    /// `SkinBounds::bound`).
+    /// [`SkinBounds::bound`](super::SkinBounds::bound)).
     NonFiniteBound,
 }
 

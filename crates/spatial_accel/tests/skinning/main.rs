@@ -3,7 +3,9 @@
 //! triangles, on seeded random rigs.
 //!
 //! - `pose`: [`skin_positions`](spatial_accel::mesh::skin_positions) and its errors.
+//! - `bounds`: [`SkinBounds`](spatial_accel::mesh::SkinBounds).
 
+mod bounds;
 mod pose;
 
 use accel_testkit::Rng;
