@@ -20,8 +20,9 @@
 //!   sweep, perfect splits, the empty-space bonus; rays front to back with the watertight
 //!   test).
 //! - [`mesh`]: the 16-wide BVH over one mesh's triangles (pre-split or spatial-split builds,
-//!   4-wide triangle packets, refit to new poses) and the two-level scene of mesh instances,
-//!   updated in place as they move.
+//!   4-wide triangle packets, refit to new poses), the two-level scene of mesh instances,
+//!   updated in place as they move, and skinned and morphed meshes posed on the CPU as Bevy's
+//!   vertex shader poses them, under a tree refit to each pose.
 //! - [`octree`]: the loose octree and quadtree over moving boxes (an object at the depth its
 //!   size gives, O(depth) edits, a move inside its loose cell one box write).
 //! - [`prefetch`]: cache prefetch hints for reads at scattered addresses known ahead (the

@@ -10,14 +10,16 @@
 //! - Skinned and morphed meshes, picked where they are drawn: [`skin_positions`] and
 //!   [`morph_positions`] pose a mesh's vertices as Bevy's vertex shader does (from
 //!   [`SkinnedVertices`], [`MorphTargets`] and the skin's [`joint_matrices`]), failing with a
-//!   [`SkinningError`]; [`SkinBounds`] bounds a pose from the joints alone, for a broad
-//!   phase that skins only the meshes a ray may hit.
+//!   [`SkinningError`]; [`PosedMeshBvh`] is a tree over the posed vertices that each pose
+//!   refits (and rebuilds once refits have loosened it); [`SkinBounds`] bounds a pose from
+//!   the joints alone, for a broad phase that skins only the meshes a ray may hit.
 
 mod counted;
 mod hit;
 mod leaf_merge;
 mod mesh_bvh;
 mod packets;
+mod posed;
 mod presplit;
 mod sbvh;
 mod sbvh_spatial;
@@ -29,6 +31,7 @@ mod skinning;
 pub use counted::{CountedHit, TraversalCost};
 pub use hit::MeshHit;
 pub use mesh_bvh::{MeshBvh, MeshError};
+pub use posed::PosedMeshBvh;
 pub use sbvh::SpatialSplits;
 pub use scene::{Instance, InstanceHit, InstancedScene};
 pub(crate) use scene::{instance_world_box, is_placeable};

@@ -19,7 +19,7 @@ pub enum SkinningInput {
     MorphDisplacements,
     /// The morph weights given for a pose: one per target.
     MorphWeights,
-    /// The positions a pose left (see `PosedMeshBvh::pose`):
+    /// The positions a pose left (see [`PosedMeshBvh::pose`](super::PosedMeshBvh::pose)):
     /// one per vertex of the mesh.
     PosedPositions,
 }

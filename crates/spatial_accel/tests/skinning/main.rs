@@ -4,9 +4,12 @@
 //!
 //! - `pose`: [`skin_positions`](spatial_accel::mesh::skin_positions) and its errors.
 //! - `bounds`: [`SkinBounds`](spatial_accel::mesh::SkinBounds).
+//! - `rays`: [`PosedMeshBvh`](spatial_accel::mesh::PosedMeshBvh) through refits and
+//!   rebuilds.
 
 mod bounds;
 mod pose;
+mod rays;
 
 use accel_testkit::Rng;
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3};
