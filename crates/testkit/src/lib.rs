@@ -15,6 +15,7 @@
 //! - [`mod@triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
 //! - [`dynamic_workload`]: the dynamic-tree workload of the bench tool's dynamic BVH rows and
 //!   of its parry peer.
+//! - [`glb`]: the small binary glTF writer behind the generated assets.
 //! - `bevy_apps` (feature `bevy`): the plain headless Bevy app of the plugin's tests and
 //!   benches (to which they add the plugin), the culling scenes' grid, and (feature `lights`)
 //!   bevy_light in that app.
@@ -32,6 +33,7 @@ pub mod bevy_apps;
 pub mod boxes;
 pub mod bunny;
 pub mod dynamic_workload;
+pub mod glb;
 mod mesh;
 mod rng;
 pub mod shapes;
