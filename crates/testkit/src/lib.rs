@@ -15,9 +15,17 @@
 //! - [`mod@triangle_scene`]: the benchmarks' ~1M-triangle scene of bunny copies.
 //! - [`dynamic_workload`]: the dynamic-tree workload of the bench tool's dynamic BVH rows and
 //!   of its parry peer.
+//! - [`skinned`]: a procedural skinned character (a 15-joint humanoid of tubes, 2k to 20k
+//!   triangles) as plain data, its walk cycle, CPU forward kinematics and skinning, and its
+//!   binary glTF form, which the `animated` example loads from `assets/character.glb`.
+//! - [`glb`]: the small binary glTF writer behind the generated assets.
 //! - `bevy_apps` (feature `bevy`): the plain headless Bevy app of the plugin's tests and
 //!   benches (to which they add the plugin), the culling scenes' grid, and (feature `lights`)
 //!   bevy_light in that app.
+//!
+//! Two binaries regenerate the examples' assets: `bunny_glb` writes `assets/bunny.glb` from
+//! the bunny, and `character_glb` writes `assets/character.glb` from [`skinned`]
+//! (`cargo run -p accel_testkit --bin character_glb [-- TRIANGLES]`).
 //!
 //! Everything is deterministic: the same seed gives the same scene on every machine, so a
 //! failing case is reproduced by its seed alone.
@@ -32,9 +40,11 @@ pub mod bevy_apps;
 pub mod boxes;
 pub mod bunny;
 pub mod dynamic_workload;
+pub mod glb;
 mod mesh;
 mod rng;
 pub mod shapes;
+pub mod skinned;
 pub mod triangle_scene;
 
 pub use boxes::{
