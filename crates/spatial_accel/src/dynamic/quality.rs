@@ -261,9 +261,15 @@ impl DynamicBvh {
         {
             report.rebuilt = self.finish_background_rebuild();
         }
+        // A fixed count would rework a small tree whole every frame: at a thousand leaves,
+        // 512 reinsertions a frame cost more than the rest of the plugin's frame and more
+        // than the motion they repair (quality decays with the leaves moved, a share of the
+        // tree). So the count follows the tree's size.
         let (budget, max) = (
             self.config.optimize_budget,
-            self.config.optimize_max_reinsertions,
+            self.config
+                .optimize_max_reinsertions
+                .min((self.leaf_count / 32).max(16)),
         );
         report.optimize = self.optimize(budget, max);
         if self.quality.calibration.is_some() && self.quality.edits != self.quality.edits_at_sample
