@@ -247,10 +247,16 @@ fn check_camera_paths(variant: Variant) {
         .world_mut()
         .resource_mut::<AccelSettings>()
         .require_marker = marked;
+    if variant != Variant::BusyMovers {
+        // The other variants test the index's own path: the list would take these movers.
+        accel_app
+            .world_mut()
+            .resource_mut::<AccelSettings>()
+            .busy_movers
+            .mode = BusyMovers::Off;
+    }
     if let Variant::Index(index) = variant {
-        let mut settings = accel_app.world_mut().resource_mut::<AccelSettings>();
-        settings.index = index;
-        settings.busy_movers.mode = BusyMovers::Off;
+        accel_app.world_mut().resource_mut::<AccelSettings>().index = index;
     }
     if variant == Variant::BusyMovers {
         accel_app
@@ -648,4 +654,16 @@ fn visible_sets_equal_bevys_with_ranges_and_opt_outs() {
     }
     assert!(tree_views > 0, "some views took the tree path");
     assert!(in_range_changes > 0, "range bands cut through the views");
+}
+
+/// CI runs these tests at several compute-pool sizes (`ACCEL_TEST_COMPUTE_THREADS`): the
+/// pool the apps run on must be the one asked for, or those runs test nothing new.
+#[test]
+fn compute_pool_has_the_size_asked_for() {
+    let _app = app(true);
+    let threads = bevy::tasks::ComputeTaskPool::get().thread_num();
+    match std::env::var(accel_testkit::bevy_apps::COMPUTE_THREADS_VAR) {
+        Ok(asked) => assert_eq!(threads.to_string(), asked.trim()),
+        Err(_) => assert!(threads >= 1),
+    }
 }

@@ -26,13 +26,30 @@ impl AutomaticIndex {
     }
 }
 
-/// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
-/// only while the choice is automatic, so a fixed index pays nothing for it.
-pub(crate) fn advise_index(
+/// The frame's choice of structure: the advice from the last frame's workload, then the
+/// switch it asks for. One system, not two chained: each system a frame costs the executor a
+/// task and a wake-up, which a small world notices.
+pub(crate) fn choose_index(
     settings: Res<AccelSettings>,
     mut automatic: ResMut<AutomaticIndex>,
     mut stats: ResMut<AccelStats>,
+    mut trees: ResMut<AccelTrees>,
+    mut rejected: ResMut<RejectedEntities>,
+    mut report: ResMut<IndexSwitchReport>,
 ) {
+    advise_index(&settings, &mut automatic, &mut stats);
+    switch_index(
+        &settings,
+        &automatic,
+        &mut trees,
+        &mut rejected,
+        &mut report,
+    );
+}
+
+/// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
+/// only while the choice is automatic, so a fixed index pays nothing for it.
+fn advise_index(settings: &AccelSettings, automatic: &mut AutomaticIndex, stats: &mut AccelStats) {
     if settings.index != IndexChoice::Automatic {
         stats.automatic = None;
         return;
@@ -68,12 +85,12 @@ pub(crate) struct IndexSwitchReport {
 /// Moves the dynamic entities towards the structure the settings (or the automatic choice)
 /// ask for: at once for a few, else by a fill off the frame that lands in a later frame
 /// ([`AccelSettings::index_switch_in_frame_up_to`]).
-pub(crate) fn switch_index(
-    settings: Res<AccelSettings>,
-    automatic: Res<AutomaticIndex>,
-    mut trees: ResMut<AccelTrees>,
-    mut rejected: ResMut<RejectedEntities>,
-    mut report: ResMut<IndexSwitchReport>,
+fn switch_index(
+    settings: &AccelSettings,
+    automatic: &AutomaticIndex,
+    trees: &mut ResMut<AccelTrees>,
+    rejected: &mut RejectedEntities,
+    report: &mut IndexSwitchReport,
 ) {
     let start = Instant::now();
     let target = automatic.resolve(settings.index);

@@ -10,29 +10,41 @@ use bevy::prelude::*;
 use spatial_accel::query::DynamicIndex;
 use std::time::Instant;
 
-/// Makes the dynamic index consistent after the sync's edits and lets it spend
-/// [`AccelSettings::upkeep_budget_micros`] improving itself; the BVH backend also rebuilds
-/// when its quality has decayed and keeps its ray snapshot. Does no index work in a frame
-/// without edits.
-pub(crate) fn maintain_index(
+/// The trees' upkeep in one system (each system a frame costs the executor a task and a
+/// wake-up, which a small world notices): the static tree's builds, then the dynamic index's.
+pub(crate) fn maintain_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,
     mut stats: ResMut<AccelStats>,
     mut traffic: Local<RayTraffic>,
 ) {
+    land_static_builds(&settings, &mut trees, &mut stats);
+    maintain_index(&settings, &mut trees, &mut stats, &mut traffic);
+}
+
+/// Makes the dynamic index consistent after the sync's edits and lets it spend
+/// [`AccelSettings::upkeep_budget_micros`] improving itself; the BVH backend also rebuilds
+/// when its quality has decayed and keeps its ray snapshot. Does no index work in a frame
+/// without edits.
+fn maintain_index(
+    settings: &AccelSettings,
+    trees: &mut ResMut<AccelTrees>,
+    stats: &mut AccelStats,
+    traffic: &mut RayTraffic,
+) {
     // Compared through shared access first: a mutable access marks `AccelTrees` changed.
     if let Some(tree) = trees.query().dynamic_bvh() {
-        let config = dynamic_config(&settings, tree.config());
+        let config = dynamic_config(settings, tree.config());
         if *tree.config() != config {
             trees.index_mut().configure_bvh(config);
         }
     }
-    traffic.observe(&trees, &stats);
+    traffic.observe(trees, stats);
     stats.rays_per_frame = traffic.rays;
     let start = Instant::now();
     let edited = trees.bypass_change_detection().take_pending_upkeep();
     if trees.query().bvh_pair().is_some() {
-        maintain_bvh(&settings.bvh, &mut trees, &mut stats, &traffic);
+        maintain_bvh(&settings.bvh, trees, stats, traffic);
     } else {
         stats.bvh = None;
         if edited && let Some(dynamic) = trees.index_mut().layered_dynamic_mut() {
@@ -46,10 +58,10 @@ pub(crate) fn maintain_index(
 /// frame, or starts one for the entities that came or went (in the frame for a first load
 /// or a small set, see [`AccelSettings::static_rebuild_in_frame_up_to`]). Static newcomers
 /// that no tree holds yet wait in the dynamic index, so it runs before the index's upkeep.
-pub(crate) fn land_static_builds(
-    settings: Res<AccelSettings>,
-    mut trees: ResMut<AccelTrees>,
-    mut stats: ResMut<AccelStats>,
+fn land_static_builds(
+    settings: &AccelSettings,
+    trees: &mut ResMut<AccelTrees>,
+    stats: &mut AccelStats,
 ) {
     let start = Instant::now();
     // A mutable access marks `AccelTrees` changed: only a new tree does.

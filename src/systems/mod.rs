@@ -69,13 +69,9 @@ pub(crate) fn add_tree_systems(app: &mut App) {
         .add_systems(
             PostUpdate,
             (
-                (choose_index::advise_index, choose_index::switch_index)
-                    .chain()
-                    .in_set(AccelSystems::ChooseIndex),
+                choose_index::choose_index.in_set(AccelSystems::ChooseIndex),
                 sync::sync_trees.in_set(AccelSystems::Sync),
-                (maintain::land_static_builds, maintain::maintain_index)
-                    .chain()
-                    .in_set(AccelSystems::Maintain),
+                maintain::maintain_trees.in_set(AccelSystems::Maintain),
                 publish_stats::publish_stats.in_set(AccelSystems::Stats),
             ),
         );

@@ -67,7 +67,7 @@ impl Default for BusyMoverSettings {
             quiet_frames: 30,
             transfers_per_frame: 32_768,
             checks_per_frame: 4_096,
-            min_movers: 2_000,
+            min_movers: 16,
             max_rays: 16.0,
         }
     }

@@ -16,11 +16,35 @@ use bevy::prelude::*;
 #[cfg(feature = "lights")]
 use std::any::TypeId;
 
+/// The variable that sets the compute pool of every [`plain_bevy_app`] of a process: the
+/// plugin's equivalence tests run at 1, 2 and 4 compute threads in CI (`.ci/run`), so that
+/// the parts split across the pool are held to Bevy's results as much as the serial ones.
+pub const COMPUTE_THREADS_VAR: &str = "ACCEL_TEST_COMPUTE_THREADS";
+
+/// Makes Bevy's task pools with the compute pool [`COMPUTE_THREADS_VAR`] asks for, if it is
+/// set and the pools are not made yet (they are made once per process, by the first app).
+/// A value that is not a positive number is refused loudly: a test run meant for 4 threads
+/// must not pass quietly on the default.
+fn make_pools_from_env() {
+    let Ok(text) = std::env::var(COMPUTE_THREADS_VAR) else {
+        return;
+    };
+    let threads: usize = match text.trim().parse() {
+        Ok(n) if n > 0 => n,
+        _ => panic!("{COMPUTE_THREADS_VAR}={text:?}: want a positive number of threads"),
+    };
+    let mut pools = bevy::app::TaskPoolOptions::default();
+    pools.compute.min_threads = threads;
+    pools.compute.max_threads = threads;
+    pools.create_default_pools();
+}
+
 /// A headless app with what Bevy's visibility needs: no window, no renderer. Bevy's visibility
 /// systems read mesh assets (to compute bounds), so the asset plugin is in even where a scene
-/// sets its `Aabb`s by hand. Not finished: add the plugins under test, then call
-/// `App::finish`.
+/// sets its `Aabb`s by hand. Its compute pool has the size [`COMPUTE_THREADS_VAR`] gives, or
+/// Bevy's default. Not finished: add the plugins under test, then call `App::finish`.
 pub fn plain_bevy_app() -> App {
+    make_pools_from_env();
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
