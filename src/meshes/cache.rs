@@ -212,6 +212,7 @@ pub(crate) fn invalidate_changed_meshes(
     mut events: MessageReader<AssetEvent<Mesh>>,
     mut cache: ResMut<AccelMeshCache>,
     mut table: ResMut<super::SlotMeshTable>,
+    posed: Res<super::AccelPosedMeshes>,
 ) {
     // Collect first: taking `cache` mutably only when something changed keeps its change tick
     // quiet in the common frame where no mesh was edited.
@@ -223,6 +224,7 @@ pub(crate) fn invalidate_changed_meshes(
         })
         .collect();
     for id in stale {
+        posed.lock().forget_mesh(id);
         if cache.contains(id) {
             cache.invalidate(id);
         }

@@ -1,5 +1,6 @@
 //! What rays need of the world's meshes, beside the trees: a triangle BVH per mesh asset
-//! ([`AccelMeshCache`]) and each tree slot's mesh ([`SlotMeshTable`]). Picking reads both;
+//! ([`AccelMeshCache`]), each tree slot's mesh ([`SlotMeshTable`]), and each skinned
+//! entity's posed triangles ([`AccelPosedMeshes`]). Picking reads both;
 //! so will the ray-traced preview.
 //!
 //! Compiled with the cargo feature `picking` for now: the cache needs bevy_mesh, and the
@@ -9,10 +10,13 @@
 //! feature that brings in the same.
 
 mod cache;
+mod posed;
 mod slot_table;
 
 pub(crate) use cache::invalidate_changed_meshes;
 pub use cache::{AccelMeshCache, CachedMesh, MeshShape};
+pub use posed::{AccelPosedMeshes, SkinnedShape};
+pub(crate) use posed::{PosedState, SkinInputs, forget_unskinned};
 pub(crate) use slot_table::{
     PendingSlotMeshes, SlotMeshLookup, add_slot_mesh_observers, keep_slot_mesh_table, ray_cast_mesh,
 };

@@ -90,5 +90,6 @@ pub fn update_hits(
             writer.write(PointerHits::new(ray_id.pointer, picks, camera.order as f32));
         }
     }
+    stats.posed_refits = ray_cast.take_posed_refits();
     stats.time = start.elapsed();
 }

@@ -15,7 +15,10 @@ mod ray_cast;
 mod sprites;
 mod stats;
 
-pub use crate::meshes::{AccelMeshCache, CachedMesh, MeshShape, SlotMeshTable, SlotMeshTableMode};
+pub use crate::meshes::{
+    AccelMeshCache, AccelPosedMeshes, CachedMesh, MeshShape, SkinnedShape, SlotMeshTable,
+    SlotMeshTableMode,
+};
 pub use backend::{AccelHitExtra, update_hits};
 pub use ray_cast::AccelRayCast;
 #[cfg(feature = "sprite_picking")]
@@ -121,6 +124,7 @@ impl Plugin for AccelPickingPlugin {
                 stats::publish_picking_stats.run_if(resource_exists::<AccelPickingStats>),
             )
             .init_resource::<AccelMeshCache>()
+            .init_resource::<AccelPosedMeshes>()
             .init_resource::<SlotMeshTable>()
             .init_resource::<meshes::PendingSlotMeshes>()
             .register_type::<AccelPickingSettings>()
@@ -131,7 +135,9 @@ impl Plugin for AccelPickingPlugin {
                 meshes::invalidate_changed_meshes
                     .in_set(AccelPickingSystems)
                     .after(AssetEventSystems)
-                    .run_if(resource_exists::<Assets<Mesh>>),
+                    .run_if(resource_exists::<Assets<Mesh>>)
+                    // Checked by the executor, so a frame without mesh edits spawns no task.
+                    .run_if(on_message::<AssetEvent<Mesh>>),
             )
             .add_systems(
                 PostUpdate,
@@ -157,6 +163,7 @@ impl Plugin for AccelPickingPlugin {
                     .run_if(resource_exists::<Messages<PointerHits>>),
             );
         meshes::add_slot_mesh_observers(app);
+        app.add_observer(meshes::forget_unskinned);
     }
 
     fn finish(&self, app: &mut App) {

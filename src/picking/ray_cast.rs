@@ -1,16 +1,18 @@
 //! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
 
 use crate::meshes::{
-    AccelMeshCache, CachedMesh, MeshShape, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
+    AccelMeshCache, AccelPosedMeshes, CachedMesh, MeshShape, PosedState, SkinInputs,
+    SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
 use crate::trees::placement;
 use crate::{AccelTrees, LocalFrame};
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
 use bevy::ecs::entity::Entities;
-use bevy::ecs::system::SystemParam;
 use bevy::ecs::system::lifetimeless::Read;
+use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::math::{Ray3d, Vec3A};
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh2d, Mesh3d};
 use bevy::picking::mesh_picking::ray_cast::{
     MeshRayCastSettings, RayCastBackfaces, RayCastVisibility, RayMeshHit, SimplifiedMesh,
@@ -52,6 +54,26 @@ type BoundsTargetData = (
     Option<Read<InheritedVisibility>>,
     Option<Read<ViewVisibility>>,
 );
+
+/// What a skinned candidate is read for (see [`crate::meshes::AccelPosedMeshes`]).
+type SkinnedTargetData = (
+    Entity,
+    Read<SkinnedMesh>,
+    Read<Mesh3d>,
+    Read<InheritedVisibility>,
+    Read<ViewVisibility>,
+    Has<RayCastBackfaces>,
+);
+
+/// Skinned meshes, tested at their posed vertices beside the trees' candidates.
+#[derive(SystemParam)]
+pub(crate) struct SkinnedTargets<'w, 's> {
+    posed: Option<Res<'w, AccelPosedMeshes>>,
+    targets: Query<'w, 's, SkinnedTargetData>,
+    joints: Query<'w, 's, &'static GlobalTransform>,
+    bindposes: Option<Res<'w, Assets<SkinnedMeshInverseBindposes>>>,
+    ticks: SystemChangeTick,
+}
 
 /// A hit found during traversal, before the blocking cut and the sort.
 struct PendingHit {
@@ -132,6 +154,7 @@ pub struct AccelRayCast<'w, 's> {
     /// Busy movers' rows: their own space is not kept in the trees (see
     /// [`AccelTrees::local_frame`]).
     busy_rows: Query<'w, 's, (Read<BevyAabb>, Read<GlobalTransform>)>,
+    skinned: SkinnedTargets<'w, 's>,
     hits: Local<'s, Vec<PendingHit>>,
     output: Local<'s, Vec<(Entity, RayMeshHit)>>,
     batch_output: Local<'s, Vec<(usize, Entity, RayMeshHit)>>,
@@ -197,6 +220,12 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         &self.batch_output
     }
 
+    /// Skinned entities' posed trees built or refit since the last call (see
+    /// [`AccelPosedMeshes`]).
+    pub fn take_posed_refits(&self) -> usize {
+        self.skinned.posed.as_ref().map_or(0, |p| p.take_refits())
+    }
+
     /// The trees the queries run on.
     pub fn trees(&self) -> &AccelTrees {
         &self.trees
@@ -220,6 +249,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             mesh_hits,
             bounds_targets,
             busy_rows,
+            skinned,
             hits,
             ..
         } = self;
@@ -250,10 +280,45 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         let counts = |entity, inherited, view| {
             visible(settings.visibility, inherited, view) && (settings.filter)(entity)
         };
+        // Skinned meshes first, at their posed vertices (they are skipped in the walk below):
+        // their nearest blocking hit then bounds the walk.
+        let mut posed = match (target, &skinned.posed) {
+            (Target::Meshes, Some(posed)) if !skinned.targets.is_empty() => Some(posed.lock()),
+            _ => None,
+        };
+        let mut world_ray = world_ray;
+        if let Some(state) = posed.as_deref_mut() {
+            let inputs = SkinInputs {
+                meshes,
+                bindposes: skinned.bindposes.as_deref(),
+                joints: &skinned.joints,
+                this_run: skinned.ticks.this_run(),
+            };
+            for (entity, skin, mesh3d, inherited, view, two_sided) in &skinned.targets {
+                if !state.update_pose(entity, mesh3d.id(), skin, &inputs)
+                    || !counts(entity, Some(inherited), Some(view))
+                {
+                    continue;
+                }
+                let Some((entry, hit)) = posed_hit(state, entity, &world_ray, two_sided) else {
+                    continue;
+                };
+                let distance = hit.distance;
+                hits.push(PendingHit { entity, entry, hit });
+                if (settings.early_exit_test)(entity) && distance < world_ray.t_max {
+                    world_ray.t_max = distance;
+                }
+            }
+        }
+        let posed = posed.as_deref();
+        let skinned_cut = world_ray.t_max;
         let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
             let (entity, entry, hit) = match target {
                 Target::Meshes => {
                     let entity = trees.entity(slot)?;
+                    if posed.is_some_and(|p| p.entities.contains_key(&entity)) {
+                        return None;
+                    }
                     // With the table on, the ECS is read only for the meshes a ray hits.
                     let known = slot_meshes.lookup(slot, entity);
                     match known {
@@ -319,7 +384,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             hits.push(PendingHit { entity, entry, hit });
             (settings.early_exit_test)(entity).then_some(distance)
         });
-        let cut = blocking.map_or(f32::INFINITY, |b| b.t);
+        let cut = blocking.map_or(skinned_cut, |b| b.t.min(skinned_cut));
         hits.retain(|h| h.hit.distance <= cut);
         hits.sort_by(|a, b| {
             a.hit
@@ -328,6 +393,50 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                 .then(a.entry.total_cmp(&b.entry))
         });
     }
+}
+
+/// The nearest hit on a skinned entity's posed triangles, with the entry distance into its
+/// posed box; the posed tree is built or refit first if its pose changed. In world space:
+/// the normal is the posed triangle's unit geometric normal (the vertex normals are the
+/// bind pose's), the triangle its posed corners.
+fn posed_hit(
+    state: &mut PosedState,
+    entity: Entity,
+    world: &Ray,
+    two_sided: bool,
+) -> Option<(f32, RayMeshHit)> {
+    let PosedState {
+        entities, refits, ..
+    } = state;
+    let posed = entities.get_mut(&entity)?;
+    let entry = world.intersect_aabb(&posed.bound)?;
+    let shape = posed.shape.clone();
+    let bvh = posed.posed_bvh(refits)?;
+    let backfaces = if two_sided {
+        Backfaces::Include
+    } else {
+        Backfaces::Cull
+    };
+    let hit = bvh.cast_ray(world, backfaces)?;
+    let [ia, ib, ic] = shape.triangle_indices(hit.triangle).map(|i| i as usize);
+    let [w, u, v] = hit.barycentrics;
+    let positions = bvh.positions();
+    let uv = shape
+        .uvs
+        .as_ref()
+        .and_then(|uv| Some(*uv.get(ia)? * w + *uv.get(ib)? * u + *uv.get(ic)? * v));
+    Some((
+        entry,
+        RayMeshHit {
+            point: world.at(hit.t).into(),
+            normal: Vec3::from(hit.geometric_normal),
+            barycentric_coords: Vec3::new(w, u, v),
+            distance: hit.t,
+            triangle: Some([positions[ia], positions[ib], positions[ic]]),
+            uv,
+            triangle_index: Some(hit.triangle as usize),
+        },
+    ))
 }
 
 /// Whether an entity passes the visibility setting (missing components count as visible).

@@ -11,6 +11,9 @@ pub struct AccelPickingStats {
     pub rays: usize,
     /// Entities hit, over every ray.
     pub hits: usize,
+    /// Skinned entities' posed triangle trees built or refit for rays since the backend's
+    /// last run (by it or by any other [`AccelRayCast`](super::AccelRayCast)).
+    pub posed_refits: usize,
     /// Time spent casting them.
     pub time: Duration,
 }
