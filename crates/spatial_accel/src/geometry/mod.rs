@@ -15,6 +15,7 @@ mod triangle_clip;
 pub use aabb::Aabb;
 pub use frustum::{Containment, Frustum, Plane};
 pub use frustum_triangle::TOUCH_TOLERANCE;
+pub(crate) use frustum_triangle::touch_band;
 pub use ray::Ray;
 pub use ray_aabb::SLAB_WIDENING;
 pub use selection::SelectionMode;
