@@ -5,7 +5,9 @@
 //! - [`geometry`]: [`Aabb`], [`Sphere`], [`Ray`], [`Frustum`], [`Triangle`] and the tests between
 //!   them: a conservative slab test (no ray slips between boxes), a numerically stable
 //!   ray/sphere quadratic, the watertight ray/triangle test, and three-way frustum
-//!   classification.
+//!   classification. Box selection: the frustum of a rectangle on the screen
+//!   ([`Frustum::from_clip_rect`]) and the tests a [`SelectionMode`] names (centre, enclosed,
+//!   and touching by an exact triangle test, [`Frustum::touches_triangle`]).
 //!
 //! - [`bsp`]: the polygon-aligned BSP tree over one mesh's triangles (painter's orders from
 //!   any eye point, robust cuts that share their points, exact ray queries).

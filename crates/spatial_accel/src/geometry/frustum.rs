@@ -2,7 +2,7 @@
 //! subtrees at once.
 
 use crate::{Aabb, Sphere};
-use glam::{Mat4, Vec3A, Vec4};
+use glam::{DMat4, DVec4, Mat4, Vec3A, Vec4};
 
 /// Where a volume lies with respect to a frustum (or any convex region).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -49,6 +49,49 @@ impl Plane {
     pub fn signed_distance(&self, p: Vec3A) -> f32 {
         self.normal.dot(p) + self.d
     }
+
+    /// [`Plane::from_vec4`] from `f64` coefficients, normalised in `f64` and rounded once:
+    /// planes derived from a matrix (a difference of its rows, a transformed plane) keep the
+    /// precision of the matrix instead of adding the roundings of an `f32` derivation.
+    pub(crate) fn from_dvec4(v: DVec4) -> Self {
+        let len = v.truncate().length();
+        if len > 0.0 && len.is_finite() {
+            let v = v / len;
+            Self {
+                normal: Vec3A::new(v.x as f32, v.y as f32, v.z as f32),
+                d: v.w as f32,
+            }
+        } else {
+            Self {
+                normal: Vec3A::ZERO,
+                d: if v.w >= 0.0 { 1.0 } else { -1.0 },
+            }
+        }
+    }
+
+    /// The plane as `(a, b, c, d)` in `f64`.
+    pub(crate) fn to_dvec4(self) -> DVec4 {
+        self.normal.as_dvec3().extend(f64::from(self.d))
+    }
+
+    /// The plane that holds all space: what a frustum without a far plane keeps in that
+    /// slot (the form [`Plane::from_vec4`] gives the far plane of an infinite projection).
+    pub(crate) const EVERYWHERE: Self = Self {
+        normal: Vec3A::ZERO,
+        d: 1.0,
+    };
+
+    /// The plane that holds nothing: what a plane whose numbers are lost to overflow or NaN
+    /// becomes, so that the region is empty rather than undecided.
+    pub(crate) const NOWHERE: Self = Self {
+        normal: Vec3A::ZERO,
+        d: -1.0,
+    };
+
+    /// Whether the plane's numbers are all finite.
+    pub(crate) fn is_finite(&self) -> bool {
+        self.normal.is_finite() && self.d.is_finite()
+    }
 }
 
 /// A convex region bounded by six planes, all normals pointing inwards.
@@ -94,6 +137,50 @@ impl Frustum {
     pub fn from_planes(planes: [Vec4; 6]) -> Self {
         Self {
             planes: planes.map(Plane::from_vec4),
+        }
+    }
+
+    /// The same region in a mesh's or an entity's own space, for a frustum in world space and
+    /// the transform that places that space in the world: a point `p` is inside the result
+    /// exactly when `world_from_local * p` is inside `self`. What a query over a mesh's own
+    /// tree takes (see [`MeshBvh::any_triangle_in_frustum`](crate::mesh::MeshBvh::any_triangle_in_frustum)),
+    /// so that the mesh need not be moved into the world.
+    ///
+    /// Each plane `(n, d)` maps to `world_from_local^T * (n, d)` and is normalised again, in
+    /// `f64`: the normal of a plane seen through a non-uniform scale changes its length and
+    /// direction, and every test here reads distances against unit normals. Any invertible
+    /// affine transform works, mirrored ones (a negative scale) included: the map keeps
+    /// which side of each plane is inside, whatever the handedness. A plane that holds all
+    /// space (or none) stays so; a singular transform (a zero scale) may turn a plane into
+    /// one of those, which is right (the flattened space lies wholly on one side). A plane
+    /// that a non-finite transform (or an overflow) leaves without finite numbers holds
+    /// nothing, so the result is empty rather than undecided.
+    ///
+    /// ```
+    /// use spatial_accel::{Aabb, Containment, Frustum};
+    /// use glam::{Mat4, Vec3, Vec3A};
+    /// let proj = Mat4::perspective_infinite_reverse_rh(1.0, 1.0, 0.1);
+    /// let world = Frustum::from_clip_from_world(&(proj * Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y)));
+    /// // A mesh 10 ahead, scaled by 2 on x and mirrored on z.
+    /// let world_from_local = Mat4::from_translation(Vec3::new(0.0, 0.0, -10.0))
+    ///     * Mat4::from_scale(Vec3::new(2.0, 1.0, -1.0));
+    /// let local = world.transformed(&world_from_local);
+    /// let unit = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+    /// assert_eq!(local.classify_aabb(&unit), Containment::Inside);
+    /// // Local x = 3 is world x = 6, outside a 1-radian view at depth 10.
+    /// assert!(!local.contains_point(Vec3A::new(3.0, 0.0, 0.0)));
+    /// ```
+    pub fn transformed(&self, world_from_local: &Mat4) -> Self {
+        let transpose: DMat4 = world_from_local.as_dmat4().transpose();
+        Self {
+            planes: self.planes.map(|p| {
+                let local = Plane::from_dvec4(transpose * p.to_dvec4());
+                if local.is_finite() {
+                    local
+                } else {
+                    Plane::NOWHERE
+                }
+            }),
         }
     }
 

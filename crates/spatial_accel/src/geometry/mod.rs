@@ -2,9 +2,11 @@
 
 mod aabb;
 mod frustum;
+mod frustum_triangle;
 mod ray;
 mod ray_aabb;
 mod ray_sphere;
+mod selection;
 mod sphere;
 mod triangle;
 mod triangle4;
@@ -12,8 +14,11 @@ mod triangle_clip;
 
 pub use aabb::Aabb;
 pub use frustum::{Containment, Frustum, Plane};
+pub use frustum_triangle::TOUCH_TOLERANCE;
+pub(crate) use frustum_triangle::touch_band;
 pub use ray::Ray;
 pub use ray_aabb::SLAB_WIDENING;
+pub use selection::SelectionMode;
 pub use sphere::Sphere;
 pub use triangle::{Backfaces, Triangle, TriangleHit, WatertightRay, intersect_triangle_f64};
 pub use triangle_clip::clipped_triangle_bounds;

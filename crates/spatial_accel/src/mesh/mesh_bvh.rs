@@ -96,7 +96,7 @@ pub struct MeshBvh {
     /// and after a refit, which bounds whole triangles again.
     piece_boxes: Vec<Aabb>,
     /// Whether a triangle may sit in more than one leaf (the tree was built over pieces).
-    split: bool,
+    pub(super) split: bool,
     triangle_count: usize,
     vertex_count: usize,
     /// How the tree was built, for a refit that must build it again.

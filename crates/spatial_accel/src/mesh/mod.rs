@@ -1,7 +1,8 @@
 //! Triangle meshes (the bottom level) and scenes of mesh instances (the top level).
 //!
 //! - [`MeshBvh`]: a 16-wide BVH over one mesh's indexed triangles, with the watertight test,
-//!   built over pre-split triangles or with spatial splits ([`SpatialSplits`]).
+//!   built over pre-split triangles or with spatial splits ([`SpatialSplits`]); it also
+//!   answers box selection by touching ([`MeshBvh::any_triangle_in_frustum`]).
 //! - [`MeshHit`]: where a ray met a mesh, with interpolation of vertex attributes.
 //! - [`TraversalCost`]: the work of one ray's walk, counted by a separate walk
 //!   ([`MeshBvh::cast_ray_counted`], [`InstancedScene::cast_ray_counted`]) for heat maps.
@@ -15,6 +16,7 @@
 //!   the joints alone, for a broad phase that skins only the meshes a ray may hit.
 
 mod counted;
+mod frustum_query;
 mod hit;
 mod leaf_merge;
 mod mesh_bvh;
