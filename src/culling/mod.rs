@@ -38,6 +38,7 @@ use bevy::ecs::schedule::ScheduleCleanupPolicy;
 use bevy::prelude::*;
 
 pub use stats::CullingStats;
+pub(crate) use stats::add_culling_measurements;
 
 /// Runtime settings of [`AccelCullingPlugin`].
 #[derive(Resource, Reflect, Clone, Debug, PartialEq)]
@@ -102,8 +103,6 @@ impl Plugin for AccelCullingPlugin {
         CullingStats::register(app);
         app.init_resource::<AccelCullingSettings>()
             .register_type::<AccelCullingSettings>();
-        // In `Last`: after the camera and light passes of `PostUpdate`, whichever ran.
-        app.add_systems(Last, stats::publish_culling_stats);
         app.init_resource::<CullingStats>().add_systems(
             PostUpdate,
             camera::cull_views_with_trees

@@ -71,9 +71,9 @@ impl CullingStats {
     }
 }
 
-/// Copies the last frame's culling figures into Bevy's diagnostics.
-pub(crate) fn publish_culling_stats(stats: Res<CullingStats>, mut diagnostics: Diagnostics) {
-    let s = &*stats;
+/// Adds the last frame's culling figures to Bevy's diagnostics (called by the plugin's one
+/// diagnostics system, in `Last`, after the camera and light passes).
+pub(crate) fn add_culling_measurements(s: &CullingStats, diagnostics: &mut Diagnostics) {
     diagnostics.add_measurement(&CullingStats::TIME, || s.time.as_secs_f64() * 1e3);
     diagnostics.add_measurement(&CullingStats::LIGHT_TIME, || {
         s.light_time.as_secs_f64() * 1e3

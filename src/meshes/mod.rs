@@ -18,6 +18,7 @@ pub use cache::{AccelMeshCache, CachedMesh, MeshShape};
 pub use posed::{AccelPosedMeshes, SkinnedShape};
 pub(crate) use posed::{PosedState, SkinInputs, forget_unskinned};
 pub(crate) use slot_table::{
-    PendingSlotMeshes, SlotMeshLookup, add_slot_mesh_observers, keep_slot_mesh_table, ray_cast_mesh,
+    PendingSlotMeshes, SlotMeshLookup, add_slot_mesh_observers, keep_slot_mesh_table,
+    ray_cast_mesh, slot_mesh_table_in_use,
 };
 pub use slot_table::{SlotMeshTable, SlotMeshTableMode};

@@ -311,6 +311,25 @@ pub(crate) fn add_slot_mesh_observers(app: &mut App) {
     app.add_observer(forget_removed_visibility);
 }
 
+/// Whether [`keep_slot_mesh_table`] has work this frame: the table is wanted, or still
+/// active and to be let go. A run condition, checked by the executor: in the common frame of
+/// a few rays, no task is spawned for the table.
+pub(crate) fn slot_mesh_table_in_use(
+    settings: Res<crate::picking::AccelPickingSettings>,
+    stats: Res<AccelStats>,
+    trees: Res<AccelTrees>,
+    table: Res<SlotMeshTable>,
+) -> bool {
+    table.active
+        || wanted(
+            settings.slot_mesh_table,
+            settings.slot_mesh_table_rays_per_entity,
+            table.active,
+            stats.rays_per_frame,
+            trees.len(),
+        )
+}
+
 /// Whether the table should be kept this frame.
 fn wanted(
     mode: SlotMeshTableMode,

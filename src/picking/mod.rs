@@ -27,6 +27,7 @@ pub use sprites::{
     update_sprite_hits,
 };
 pub use stats::AccelPickingStats;
+pub(crate) use stats::add_picking_measurements;
 
 use crate::meshes;
 
@@ -119,10 +120,6 @@ impl Plugin for AccelPickingPlugin {
         AccelPickingStats::register(app);
         app.init_resource::<AccelPickingSettings>()
             .init_resource::<AccelPickingStats>()
-            .add_systems(
-                Last,
-                stats::publish_picking_stats.run_if(resource_exists::<AccelPickingStats>),
-            )
             .init_resource::<AccelMeshCache>()
             .init_resource::<AccelPosedMeshes>()
             .init_resource::<SlotMeshTable>()
@@ -148,7 +145,8 @@ impl Plugin for AccelPickingPlugin {
                     .before(AccelSystems::Stats)
                     // The trees stand still while the plugin is off, and so does the table.
                     .run_if(resource_exists::<AccelTrees>)
-                    .run_if(|s: Option<Res<AccelSettings>>| s.is_some_and(|s| s.enabled)),
+                    .run_if(|s: Option<Res<AccelSettings>>| s.is_some_and(|s| s.enabled))
+                    .run_if(meshes::slot_mesh_table_in_use),
             )
             .add_systems(
                 PreUpdate,

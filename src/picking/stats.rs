@@ -27,8 +27,9 @@ impl AccelPickingStats {
     }
 }
 
-/// Publishes the backend's time; a frame with no ray measures zero, so the plot shows idle
-/// frames as idle.
-pub(crate) fn publish_picking_stats(stats: Res<AccelPickingStats>, mut diagnostics: Diagnostics) {
+/// Adds the backend's time to Bevy's diagnostics (called by the plugin's one diagnostics
+/// system, in `Last`); a frame with no ray measures zero, so the plot shows idle frames as
+/// idle.
+pub(crate) fn add_picking_measurements(stats: &AccelPickingStats, diagnostics: &mut Diagnostics) {
     diagnostics.add_measurement(&AccelPickingStats::TIME, || stats.time.as_secs_f64() * 1e3);
 }

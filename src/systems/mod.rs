@@ -9,8 +9,10 @@
 //!    movers that went quiet go back into the index.
 //! 3. [`AccelSystems::Maintain`] (`maintain`, `bvh_upkeep`): the static tree's builds land
 //!    or start; the dynamic index is refit and improved within its budget.
-//! 4. [`AccelSystems::Stats`] (`publish_stats`): [`AccelStats`](crate::AccelStats) and the
-//!    diagnostics.
+//! 4. [`AccelSystems::Stats`] (`publish_stats`): [`AccelStats`](crate::AccelStats).
+//!
+//! In `Last`, one system (`publish_diagnostics`) adds the trees', the culling's and the
+//! picking's figures to Bevy's diagnostics.
 
 mod bvh_upkeep;
 mod choose_index;
@@ -42,7 +44,7 @@ pub enum AccelSystems {
     /// The static tree's builds landed; the dynamic index refit, optimised, and rebuilt when
     /// its quality decays.
     Maintain,
-    /// Statistics and diagnostics published.
+    /// Statistics published (the diagnostics follow in `Last`).
     Stats,
 }
 
@@ -74,6 +76,7 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 maintain::maintain_trees.in_set(AccelSystems::Maintain),
                 publish_stats::publish_stats.in_set(AccelSystems::Stats),
             ),
-        );
+        )
+        .add_systems(Last, publish_stats::publish_diagnostics);
     membership::add_membership_observers(app);
 }

@@ -1,18 +1,13 @@
-//! The trees' figures published: [`AccelStats`] and Bevy diagnostics.
+//! The trees' figures published: [`AccelStats`], and every plugin's Bevy diagnostics.
 
 use crate::stats::AccelStats;
 use crate::trees::AccelTrees;
 use bevy::diagnostic::Diagnostics;
 use bevy::prelude::*;
 
-/// Copies tree shape into the stats and the diagnostics; every figure is O(1) to read (the
-/// depth is the root's stored height: a walk of a large tree, even once a second, would be a
-/// frame hitch).
-pub(crate) fn publish_stats(
-    trees: Res<AccelTrees>,
-    mut stats: ResMut<AccelStats>,
-    mut diagnostics: Diagnostics,
-) {
+/// Copies tree shape into the stats; every figure is O(1) to read (the depth is the root's
+/// stored height: a walk of a large tree, even once a second, would be a frame hitch).
+pub(crate) fn publish_stats(trees: Res<AccelTrees>, mut stats: ResMut<AccelStats>) {
     if trees.is_changed() {
         let index = trees.query();
         stats.busy_movers = index.busy_movers().len();
@@ -23,6 +18,18 @@ pub(crate) fn publish_stats(
         stats.index = index.choice();
         stats.dynamic_index = index.dynamic_stats();
     }
+}
+
+/// Adds the frame's figures of the trees, the culling and the picking to Bevy's diagnostics,
+/// in `Last` (after the culling's passes, whichever ran). One system for every plugin: each
+/// system a frame costs Bevy's executor a task and a thread wake-up, which a small world
+/// notices.
+pub(crate) fn publish_diagnostics(
+    stats: Res<AccelStats>,
+    #[cfg(feature = "culling")] culling: Option<Res<crate::culling::CullingStats>>,
+    #[cfg(feature = "picking")] picking: Option<Res<crate::picking::AccelPickingStats>>,
+    mut diagnostics: Diagnostics,
+) {
     let s = &*stats;
     diagnostics.add_measurement(&AccelStats::SYNC_TIME, || s.sync_time.as_secs_f64() * 1e3);
     diagnostics.add_measurement(&AccelStats::MAINTAIN_TIME, || {
@@ -34,5 +41,13 @@ pub(crate) fn publish_stats(
     diagnostics.add_measurement(&AccelStats::DEPTH, || s.dynamic_index.depth as f64);
     if let Some(ratio) = s.dynamic_index.quality_ratio {
         diagnostics.add_measurement(&AccelStats::QUALITY_RATIO, || ratio as f64);
+    }
+    #[cfg(feature = "culling")]
+    if let Some(culling) = culling {
+        crate::culling::add_culling_measurements(&culling, &mut diagnostics);
+    }
+    #[cfg(feature = "picking")]
+    if let Some(picking) = picking {
+        crate::picking::add_picking_measurements(&picking, &mut diagnostics);
     }
 }
