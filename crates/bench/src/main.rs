@@ -18,7 +18,10 @@
 //! `--panel-closed` the closed panel's), `culling`
 //! (the culling system alone; a false negative is a failure), `lights` (the shadow views'
 //! culling against bevy_light's; a missing caster is a failure), `picking` (per-ray time of
-//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure), `sync` (the
+//! mesh and bounds casts against `MeshRayCast`; a wrong mesh hit is a failure), `skinned`
+//! (picking walking characters at their posed vertices: the frame with skinned picking on and
+//! off, the time per pick against `MeshRayCast` and against baking the posed mesh per cast),
+//! `sync` (the
 //! trees' upkeep per frame for each index choice, against the least any upkeep of the same
 //! movers costs) and `scenery` (streaming static scenery in
 //! and out against plain Bevy; an entity lost or kept is a failure). More suites of the core
@@ -124,6 +127,10 @@ const SUITES: &[(&str, &str)] = &[
     (
         "picking",
         "per-ray time of mesh and bounds casts against `MeshRayCast` (a wrong mesh hit is a failure)",
+    ),
+    (
+        "skinned",
+        "picking animated characters at their posed vertices against `MeshRayCast` and baking",
     ),
     (
         "sync",

@@ -4,7 +4,7 @@
 //!
 //! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
 //! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
-//! `picking`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
+//! `picking`, `skinned`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
 //! systems where Bevy has them.
 
 pub mod build;
@@ -19,6 +19,7 @@ pub mod preview;
 pub mod rays;
 pub mod rounds;
 pub mod scenery;
+pub mod skinned;
 pub mod static_builds;
 pub mod stress;
 pub mod structures;
@@ -50,6 +51,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "frame" => frame::run(opts),
         "culling" => culling::run(opts.quick),
         "picking" => picking::run(opts.quick),
+        "skinned" => skinned::run(opts.quick),
         "sync" => sync::run(opts.quick),
         "scenery" => scenery::run(opts.quick),
         #[cfg(feature = "light_culling")]
