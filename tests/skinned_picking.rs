@@ -9,6 +9,7 @@ use accel_testkit::skinned::{Detail, JOINT_COUNT, JOINT_PARENTS, SkinnedCharacte
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::primitives::Aabb;
 use bevy::ecs::system::RunSystemOnce;
+use bevy::mesh::morph::{MeshMorphWeights, MorphAttributes};
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::picking::mesh_picking::ray_cast::{MeshRayCast, MeshRayCastSettings, RayCastVisibility};
@@ -25,10 +26,9 @@ struct Character {
     joints: Vec<Entity>,
 }
 
-/// The character mesh with its weights scaled per vertex by `scale(vertex)` (1 keeps
-/// glTF's weights summing to one).
+/// The character mesh with the given joint weights and the character's morph target.
 fn bevy_mesh(c: &SkinnedCharacter, weights: &[[f32; 4]]) -> Mesh {
-    Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::all())
+    let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::all())
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, c.positions.clone())
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, c.normals.clone())
         .with_inserted_attribute(
@@ -36,7 +36,19 @@ fn bevy_mesh(c: &SkinnedCharacter, weights: &[[f32; 4]]) -> Mesh {
             VertexAttributeValues::Uint16x4(c.joints.clone()),
         )
         .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights.to_vec())
-        .with_inserted_indices(Indices::U32(c.indices.clone()))
+        .with_inserted_indices(Indices::U32(c.indices.clone()));
+    // The character's one morph target (its chest breathing), as Bevy's glTF loader stores
+    // targets: position displacements, target-major.
+    mesh.set_morph_targets(
+        c.breathe
+            .iter()
+            .map(|&position| MorphAttributes {
+                position,
+                ..default()
+            })
+            .collect(),
+    );
+    mesh
 }
 
 /// A random local transform for a joint: a rotation, a non-uniform scale, mirrored on one
@@ -113,6 +125,8 @@ fn spawn_characters(app: &mut App, c: &SkinnedCharacter, rng: &mut Rng) -> Vec<C
                 Transform::IDENTITY,
                 Visibility::Visible,
                 ChildOf(root),
+                // Scaled far past a breath, so that a wrong morph shows.
+                MeshMorphWeights::Value { weights: vec![0.0] },
             ))
             .id();
         out.push(Character { mesh, joints });
@@ -145,11 +159,17 @@ fn posed_triangles(
                     Mat4::from(app.world().get::<GlobalTransform>(j).unwrap().affine()) * *ib
                 })
                 .collect();
+            let breath = match app.world().get::<MeshMorphWeights>(ch.mesh) {
+                Some(MeshMorphWeights::Value { weights }) => weights[0],
+                _ => 0.0,
+            };
             let posed: Vec<Vec3> = c
                 .positions
                 .iter()
+                .zip(&c.breathe)
                 .zip(c.joints.iter().zip(weights))
-                .map(|(&p, (j, w))| {
+                .map(|((&p, &d), (j, w))| {
+                    let p = if breath != 0.0 { p + breath * d } else { p };
                     let m = matrices[j[0] as usize] * w[0]
                         + matrices[j[1] as usize] * w[1]
                         + matrices[j[2] as usize] * w[2]
@@ -202,6 +222,17 @@ fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
         // A new random pose for every joint of every character (the first frame: rest).
         if frame > 0 {
             for ch in &chars {
+                // Every other frame a large breath, on some characters.
+                let breath = if (frame + ch.joints.len()) % 2 == 0 && rng.below(2) == 0 {
+                    rng.range(-8.0, 8.0)
+                } else {
+                    0.0
+                };
+                *app.world_mut()
+                    .get_mut::<MeshMorphWeights>(ch.mesh)
+                    .unwrap() = MeshMorphWeights::Value {
+                    weights: vec![breath],
+                };
                 for (k, &joint) in ch.joints.iter().enumerate() {
                     let local = random_local(&mut rng, rest[k].translation);
                     *app.world_mut().get_mut::<Transform>(joint).unwrap() = local;
@@ -323,5 +354,101 @@ fn a_skin_without_bindposes_is_picked_on_its_bind_pose_without_panicking() {
         hit,
         Some(entity),
         "the bind pose is hit ({tracked} tracked; Bevy: {bevys:?})"
+    );
+}
+
+#[test]
+fn morph_only_meshes_are_picked_at_their_morphed_vertices() {
+    let mut app = common::app();
+    let c = character(Detail::for_triangles(2_000));
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(bevy_mesh(&c, &c.weights));
+    let transform = Transform::from_xyz(1.0, -0.5, 2.0)
+        .with_rotation(Quat::from_rotation_y(0.7))
+        .with_scale(Vec3::new(1.3, 0.8, -1.1));
+    let mut rng = Rng::new(74);
+    let entity = app
+        .world_mut()
+        .spawn((
+            Mesh3d(mesh),
+            transform,
+            Visibility::Visible,
+            MeshMorphWeights::Value { weights: vec![0.0] },
+        ))
+        .id();
+    let (mut rays, mut hits, mut unmorphed_wrong) = (0, 0, 0);
+    for frame in 0..4 {
+        let breath = if frame == 0 {
+            0.0
+        } else {
+            rng.range(-8.0, 8.0)
+        };
+        *app.world_mut().get_mut::<MeshMorphWeights>(entity).unwrap() = MeshMorphWeights::Value {
+            weights: vec![breath],
+        };
+        app.update();
+        let world = Mat4::from(app.world().get::<GlobalTransform>(entity).unwrap().affine());
+        let pose = |w: f32| -> Vec<(Entity, Vec<[Vec3; 3]>)> {
+            let tris = c
+                .indices
+                .chunks_exact(3)
+                .map(|t| {
+                    [0, 1, 2].map(|k| {
+                        let v = t[k] as usize;
+                        world.transform_point3(c.positions[v] + w * c.breathe[v])
+                    })
+                })
+                .collect();
+            vec![(entity, tris)]
+        };
+        let (posed, unmorphed) = (pose(breath), pose(0.0));
+        for _ in 0..80 {
+            let t = posed[0].1[rng.below(posed[0].1.len())];
+            let (a, b) = (rng.f32() * 0.5, rng.f32() * 0.5);
+            let target = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+            let from = target
+                + Vec3::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                )
+                .normalize_or(Vec3::Y)
+                    * 10.0;
+            let Ok(dir) = Dir3::new(target - from) else {
+                continue;
+            };
+            let ray = Ray3d::new(from, dir);
+            let want = brute_force(ray, &posed);
+            let ours = app
+                .world_mut()
+                .run_system_once(move |mut ours: AccelRayCast| {
+                    let any =
+                        MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
+                    ours.cast_ray(ray, &any)
+                        .first()
+                        .map(|(e, h)| (*e, h.distance))
+                })
+                .unwrap();
+            rays += 1;
+            hits += want.is_some() as usize;
+            let same = |got: Option<(Entity, f32)>, want: Option<(Entity, f32)>| match (got, want) {
+                (None, None) => true,
+                (Some((e, d)), Some((we, wd))) => e == we && (d - wd).abs() <= 1e-4 * wd.max(1.0),
+                _ => false,
+            };
+            assert!(
+                same(ours, want),
+                "frame {frame}: ours {ours:?}, want {want:?}"
+            );
+            unmorphed_wrong += !same(brute_force(ray, &unmorphed), want) as usize;
+        }
+    }
+    assert!(hits * 2 > rays, "too few rays hit: {hits} of {rays}");
+    // The unmorphed mesh answers many of the same rays otherwise: the test tells them apart.
+    assert!(
+        unmorphed_wrong > 10,
+        "unmorphed wrong on only {unmorphed_wrong} of {rays}"
     );
 }

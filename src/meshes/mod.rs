@@ -16,7 +16,7 @@ mod slot_table;
 pub(crate) use cache::invalidate_changed_meshes;
 pub use cache::{AccelMeshCache, CachedMesh, MeshShape};
 pub use posed::{AccelPosedMeshes, SkinnedShape};
-pub(crate) use posed::{PosedState, SkinInputs, forget_unskinned};
+pub(crate) use posed::{PosedState, Posing, SkinInputs, forget_unposed};
 pub(crate) use slot_table::{
     PendingSlotMeshes, SlotMeshLookup, add_slot_mesh_observers, keep_slot_mesh_table,
     ray_cast_mesh, slot_mesh_table_in_use,

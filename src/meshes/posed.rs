@@ -1,6 +1,6 @@
-//! Skinned meshes as Bevy draws them: each skinned entity's triangles at their posed
-//! positions, in a BVH of its own, refit only when a ray reaches the entity and its pose
-//! changed since the last refit.
+//! Skinned and morphed meshes as Bevy draws them: each such entity's triangles at their
+//! posed positions (morph targets applied, then skinning), in a BVH of its own, refit only
+//! when a ray reaches the entity and its pose changed since the last refit.
 //!
 //! Bevy draws a skinned mesh at posed vertices (each blended from up to four joints, joint
 //! `GlobalTransform` times inverse bindpose) but its `MeshRayCast` tests the bind pose, so a
@@ -19,15 +19,18 @@
 use bevy::asset::AssetId;
 use bevy::ecs::change_detection::Tick;
 use bevy::ecs::entity::EntityHashMap;
+use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use spatial_accel::Aabb;
-use spatial_accel::mesh::{PosedMeshBvh, SkinBounds, SkinnedVertices, joint_matrices};
+use spatial_accel::mesh::{
+    MorphTargets, PosedMeshBvh, SkinBounds, SkinnedVertices, joint_matrices, skin_positions,
+};
 use std::sync::{Arc, Mutex, PoisonError};
 
-/// One skinned mesh asset's vertex data, read once and shared by every entity that uses it.
+/// One posed mesh asset's vertex data, read once and shared by every entity that uses it.
 #[derive(Debug)]
 pub struct SkinnedShape {
     /// Bind-pose positions, as in the asset.
@@ -38,17 +41,24 @@ pub struct SkinnedShape {
     pub joint_weights: Vec<[f32; 4]>,
     /// The triangle list's vertex indices, shared with every posed copy.
     pub topology: Arc<[u32]>,
-    /// Vertex normals, when the asset has `Float32x3` ones (bind pose: a hit's normal is
-    /// the geometric one of the posed triangle).
+    /// First texture coordinates, when the asset has `Float32x2` ones.
     pub uvs: Option<Vec<Vec2>>,
-    /// The box of any pose, from the joints' matrices alone.
+    /// The morph targets' position displacements, target-major (target `t`'s displacement
+    /// of vertex `v` at `t * vertex_count + v`, as Bevy's glTF loader stores them); empty
+    /// without targets.
+    pub morph_displacements: Vec<Vec3>,
+    /// How many morph targets the mesh has.
+    pub morph_targets: usize,
+    /// The box of any pose, from the joints' matrices and the morph weights alone.
     pub bounds: SkinBounds,
 }
 
 impl SkinnedShape {
-    /// Reads a skinned mesh asset; `Err` says why it cannot be posed (rays then test its
-    /// bind pose, as Bevy's do).
-    pub fn from_mesh(mesh: &Mesh) -> Result<Self, String> {
+    /// Reads a skinned mesh asset, or with `skinned` false a mesh posed by its morph
+    /// targets alone (then every vertex follows one joint, the entity's own transform, with
+    /// weight one: the skinning formula then gives Bevy's unskinned vertex). `Err` says why
+    /// it cannot be posed (rays then test it unposed, as Bevy's do).
+    pub fn from_mesh(mesh: &Mesh, skinned: bool) -> Result<Self, String> {
         if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
             return Err("is not a triangle list".into());
         }
@@ -60,14 +70,28 @@ impl SkinnedShape {
             .copied()
             .map(Vec3::from)
             .collect();
-        let joint_indices = match attribute(Mesh::ATTRIBUTE_JOINT_INDEX) {
-            Some(VertexAttributeValues::Uint16x4(j)) => j.clone(),
-            _ => return Err("has no Uint16x4 joint indices".into()),
+        let (joint_indices, joint_weights) = if skinned {
+            let joints = match attribute(Mesh::ATTRIBUTE_JOINT_INDEX) {
+                Some(VertexAttributeValues::Uint16x4(j)) => j.clone(),
+                _ => return Err("has no Uint16x4 joint indices".into()),
+            };
+            let weights = match attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT) {
+                Some(VertexAttributeValues::Float32x4(w)) => w.clone(),
+                _ => return Err("has no Float32x4 joint weights".into()),
+            };
+            (joints, weights)
+        } else {
+            let n = positions.len();
+            (vec![[0; 4]; n], vec![[1.0, 0.0, 0.0, 0.0]; n])
         };
-        let joint_weights = match attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT) {
-            Some(VertexAttributeValues::Float32x4(w)) => w.clone(),
-            _ => return Err("has no Float32x4 joint weights".into()),
-        };
+        let morph_displacements: Vec<Vec3> = mesh
+            .morph_targets()
+            .map(|targets| targets.iter().map(|t| t.position).collect())
+            .unwrap_or_default();
+        let morph_targets = morph_displacements.len() / positions.len().max(1);
+        if morph_targets * positions.len() != morph_displacements.len() {
+            return Err("has morph targets of another vertex count".into());
+        }
         let indices: Vec<u32> = match mesh.try_indices_option() {
             Err(_) => return Err("has its indices in the render world only".into()),
             Ok(Some(Indices::U16(i))) => i.iter().map(|&i| u32::from(i)).collect(),
@@ -84,7 +108,8 @@ impl SkinnedShape {
             joint_indices: &joint_indices,
             joint_weights: &joint_weights,
         };
-        let bounds = SkinBounds::new(&vertices, &[], 0).map_err(|e| e.to_string())?;
+        let bounds = SkinBounds::new(&vertices, &morph_displacements, morph_targets)
+            .map_err(|e| e.to_string())?;
         let uvs = match attribute(Mesh::ATTRIBUTE_UV_0) {
             Some(VertexAttributeValues::Float32x2(uvs)) => {
                 Some(uvs.iter().copied().map(Vec2::from).collect())
@@ -97,6 +122,8 @@ impl SkinnedShape {
             joint_indices,
             joint_weights,
             uvs,
+            morph_displacements,
+            morph_targets,
             bounds,
         })
     }
@@ -115,46 +142,53 @@ impl SkinnedShape {
         let i = 3 * triangle as usize;
         [self.topology[i], self.topology[i + 1], self.topology[i + 2]]
     }
+
+    /// The morph targets with `weights` (one per target), if the mesh has any.
+    fn morph<'a>(&'a self, weights: &'a [f32]) -> Option<MorphTargets<'a>> {
+        (self.morph_targets > 0).then_some(MorphTargets {
+            weights,
+            displacements: &self.morph_displacements,
+        })
+    }
 }
 
-/// One skinned entity's pose as rays see it.
+/// One posed entity's pose as rays see it.
 pub(crate) struct PosedEntity {
     pub(crate) shape: Arc<SkinnedShape>,
     /// The joints' skinning matrices (read at the first ray of each run of a system that
     /// casts rays: the joints cannot move while it runs).
     pub(crate) joints: Vec<Mat4>,
-    /// A box around the posed surface of `joints`' pose.
+    /// The morph targets' weights (one per target of the mesh).
+    pub(crate) morph_weights: Vec<f32>,
+    /// A box around the posed surface of that pose.
     pub(crate) bound: Aabb,
     /// The posed tree, built at the first ray that reaches the entity.
     pub(crate) bvh: Option<PosedMeshBvh>,
-    /// The matrices `bvh` was posed with.
-    posed_with: Vec<Mat4>,
-    /// The system run whose joints `joints` holds.
+    /// The matrices and morph weights `bvh` was posed with.
+    posed_with: (Vec<Mat4>, Vec<f32>),
+    /// The system run whose pose `joints` and `morph_weights` hold.
     read_at: Tick,
 }
 
 impl PosedEntity {
-    /// The posed tree for this frame's joints: built, or refit if the pose changed since.
-    /// `None` when the pose cannot be skinned (logged once by the caller).
+    /// The posed tree for the pose last read: built, or refit if the pose changed since.
+    /// `None` when the pose cannot be skinned.
     pub(crate) fn posed_bvh(&mut self, refits: &mut usize) -> Option<&PosedMeshBvh> {
+        let shape = &self.shape;
+        let morph = shape.morph(&self.morph_weights);
         if self.bvh.is_none() {
             let mut posed = Vec::new();
-            spatial_accel::mesh::skin_positions(
-                &self.shape.vertices(),
-                &self.joints,
-                None,
-                &mut posed,
-            )
-            .ok()?;
-            self.bvh = PosedMeshBvh::new(self.shape.topology.clone(), posed).ok();
-            self.posed_with.clone_from(&self.joints);
-            *refits += 1;
-        } else if self.posed_with != self.joints {
+            skin_positions(&shape.vertices(), &self.joints, morph, &mut posed).ok()?;
+            self.bvh = PosedMeshBvh::new(shape.topology.clone(), posed).ok();
+        } else if self.posed_with.0 != self.joints || self.posed_with.1 != self.morph_weights {
             let bvh = self.bvh.as_mut()?;
-            bvh.skin(&self.shape.vertices(), &self.joints, None).ok()?;
-            self.posed_with.clone_from(&self.joints);
-            *refits += 1;
+            bvh.skin(&shape.vertices(), &self.joints, morph).ok()?;
+        } else {
+            return self.bvh.as_ref();
         }
+        self.posed_with.0.clone_from(&self.joints);
+        self.posed_with.1.clone_from(&self.morph_weights);
+        *refits += 1;
         self.bvh.as_ref()
     }
 }
@@ -162,31 +196,33 @@ impl PosedEntity {
 /// What the posed meshes keep between rays: per mesh asset its shape, per entity its pose.
 #[derive(Default)]
 pub(crate) struct PosedState {
-    shapes: HashMap<AssetId<Mesh>, Result<Arc<SkinnedShape>, ()>>,
+    /// By mesh asset, and whether it is posed by a skin (a mesh may be both skinned and
+    /// used unskinned with morph weights).
+    shapes: HashMap<(AssetId<Mesh>, bool), Result<Arc<SkinnedShape>, ()>>,
     pub(crate) entities: EntityHashMap<PosedEntity>,
-    /// Entities whose skin could not be read this frame, so they are tested on their bind
-    /// pose: warned about once each.
+    /// Entities whose pose could not be read, so they are tested unposed: warned about once
+    /// each.
     warned: EntityHashMap<()>,
     /// Posed trees built or refit since the stats last took the count.
     pub(crate) refits: usize,
 }
 
-/// The posed trees of skinned entities behind [`AccelRayCast`](crate::picking::AccelRayCast)
-/// and the picking backend. Behind a lock, as [`AccelMeshCache`](super::AccelMeshCache), so
-/// that ray casts from a shared `Res` can build and refit them. An entity's entry goes with
-/// its `SkinnedMesh`.
+/// The posed trees of skinned and morphed entities behind
+/// [`AccelRayCast`](crate::picking::AccelRayCast) and the picking backend. Behind a lock, as
+/// [`AccelMeshCache`](super::AccelMeshCache), so that ray casts from a shared `Res` can build
+/// and refit them. An entity's entry goes with its `SkinnedMesh` or `MeshMorphWeights`.
 #[derive(Resource, Default)]
 pub struct AccelPosedMeshes {
     pub(crate) state: Mutex<PosedState>,
 }
 
 impl AccelPosedMeshes {
-    /// Skinned entities with a pose read since their `SkinnedMesh` came.
+    /// Posed entities with a pose read since they were posed.
     pub fn len(&self) -> usize {
         self.lock().entities.len()
     }
 
-    /// True when no skinned entity has a pose.
+    /// True when no entity has a pose.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -201,24 +237,35 @@ impl AccelPosedMeshes {
     }
 }
 
-/// What reading a skinned entity's pose needs.
+/// What reading a posed entity's pose needs.
 pub(crate) struct SkinInputs<'a> {
     pub(crate) meshes: &'a Assets<Mesh>,
     pub(crate) bindposes: Option<&'a Assets<SkinnedMeshInverseBindposes>>,
     pub(crate) joints: &'a Query<'a, 'a, &'static GlobalTransform>,
+    /// Shared morph weights, for entities whose `MeshMorphWeights` refer to them.
+    pub(crate) morph_weights: &'a Query<'a, 'a, &'static MorphWeights>,
     /// The casting system's run.
     pub(crate) this_run: Tick,
 }
 
+/// How an entity is posed: by its skin (after its morph targets, if its mesh has them), or
+/// by its morph targets alone, on its own transform.
+#[derive(Clone, Copy)]
+pub(crate) enum Posing<'a> {
+    Skin(&'a SkinnedMesh),
+    MorphOnly(&'a GlobalTransform),
+}
+
 impl PosedState {
-    /// Brings `entity`'s pose to this frame: its joints' matrices and the box around them.
-    /// `false` when the entity cannot be posed (its mesh or skin is missing or malformed;
-    /// one warning per entity): rays then test it as an unskinned mesh, on its bind pose.
+    /// Brings `entity`'s pose up to date: its joints' matrices, its morph weights and the box
+    /// around them. `false` when the entity cannot be posed (its mesh or skin is missing or
+    /// malformed; one warning per entity): rays then test it as an unposed mesh, as Bevy's do.
     pub(crate) fn update_pose(
         &mut self,
         entity: Entity,
         mesh: AssetId<Mesh>,
-        skin: &SkinnedMesh,
+        posing: Posing,
+        morph: Option<&MeshMorphWeights>,
         inputs: &SkinInputs,
     ) -> bool {
         if let Some(posed) = self.entities.get(&entity)
@@ -226,14 +273,14 @@ impl PosedState {
         {
             return true;
         }
-        match self.read_pose(entity, mesh, skin, inputs) {
+        match self.read_pose(entity, mesh, posing, morph, inputs) {
             Ok(()) => true,
             Err(reason) => {
                 self.entities.remove(&entity);
                 if self.warned.insert(entity, ()).is_none() {
                     warn!(
-                        "bevy_accel picking: skinned entity {entity} {reason}; rays test its \
-                         bind pose, as Bevy's do"
+                        "bevy_accel picking: posed entity {entity} {reason}; rays test it \
+                         unposed, as Bevy's do"
                     );
                 }
                 false
@@ -245,75 +292,104 @@ impl PosedState {
         &mut self,
         entity: Entity,
         mesh: AssetId<Mesh>,
-        skin: &SkinnedMesh,
+        posing: Posing,
+        morph: Option<&MeshMorphWeights>,
         inputs: &SkinInputs,
     ) -> Result<(), String> {
-        let shape = match self.shapes.get(&mesh) {
+        let skinned = matches!(posing, Posing::Skin(_));
+        let shape = match self.shapes.get(&(mesh, skinned)) {
             Some(shape) => shape.clone(),
             None => {
                 let asset = inputs.meshes.get(mesh).ok_or("has no mesh asset yet")?;
-                let shape = SkinnedShape::from_mesh(asset)
+                let shape = SkinnedShape::from_mesh(asset, skinned)
                     .map(Arc::new)
-                    .map_err(|reason| {
-                        warn!("bevy_accel picking: skinned mesh {mesh:?} {reason}");
-                    });
-                self.shapes.insert(mesh, shape.clone());
+                    .map_err(|reason| warn!("bevy_accel picking: mesh {mesh:?} {reason}"));
+                self.shapes.insert((mesh, skinned), shape.clone());
                 shape
             }
         }
         .map_err(|()| "has a mesh that cannot be posed".to_string())?;
-        let bindposes = inputs
-            .bindposes
-            .and_then(|assets| assets.get(&skin.inverse_bindposes))
-            .ok_or("has no inverse bindposes asset")?;
         // Bevy's skin extraction: a joint without a transform or a bindpose is the identity.
-        let globals: Vec<Mat4> = skin
-            .joints
-            .iter()
-            .map(|&joint| {
-                inputs
+        let (globals, bindposes): (Vec<Mat4>, &[Mat4]) = match posing {
+            Posing::Skin(skin) => {
+                let bindposes = inputs
+                    .bindposes
+                    .and_then(|assets| assets.get(&skin.inverse_bindposes))
+                    .ok_or("has no inverse bindposes asset")?;
+                let globals = skin
                     .joints
-                    .get(joint)
-                    .map_or(Mat4::IDENTITY, |g| Mat4::from(g.affine()))
-            })
-            .collect();
+                    .iter()
+                    .map(|&joint| {
+                        inputs
+                            .joints
+                            .get(joint)
+                            .map_or(Mat4::IDENTITY, |g| Mat4::from(g.affine()))
+                    })
+                    .collect();
+                (globals, bindposes)
+            }
+            Posing::MorphOnly(transform) => {
+                (vec![Mat4::from(transform.affine())], &[Mat4::IDENTITY])
+            }
+        };
+        // Bevy draws the targets that have no weight (none given, or too few) at zero.
+        let given = match morph {
+            Some(MeshMorphWeights::Value { weights }) => weights.as_slice(),
+            Some(MeshMorphWeights::Reference(owner)) => inputs
+                .morph_weights
+                .get(*owner)
+                .map_or(&[][..], MorphWeights::weights),
+            None => &[],
+        };
+        let mut weights = vec![0.0; shape.morph_targets];
+        for (w, given) in weights.iter_mut().zip(given) {
+            *w = *given;
+        }
         let posed = self.entities.entry(entity).or_insert_with(|| PosedEntity {
             shape: shape.clone(),
             joints: Vec::new(),
+            morph_weights: Vec::new(),
             bound: Aabb::EMPTY,
             bvh: None,
-            posed_with: Vec::new(),
+            posed_with: (Vec::new(), Vec::new()),
             read_at: Tick::new(inputs.this_run.get().wrapping_sub(1)),
         });
         if !Arc::ptr_eq(&posed.shape, &shape) {
-            // A new mesh asset: its tree is built again at the next ray.
+            // Another mesh asset: its tree is built again at the next ray.
             posed.shape = shape;
             posed.bvh = None;
         }
         let mut matrices = core::mem::take(&mut posed.joints);
         joint_matrices(&globals, bindposes, &mut matrices);
         posed.joints = matrices;
+        posed.morph_weights = weights;
         posed.read_at = inputs.this_run;
         posed.bound = posed
             .shape
             .bounds
-            .bound(&posed.joints, &[])
+            .bound(&posed.joints, &posed.morph_weights)
             .map_err(|e| format!("cannot be posed: {e}"))?;
         self.warned.remove(&entity);
         Ok(())
     }
 
-    /// Forgets shapes of mesh assets that changed, and their entities' trees.
+    /// Forgets the shapes of a mesh asset that changed, and their entities' trees.
     pub(crate) fn forget_mesh(&mut self, mesh: AssetId<Mesh>) {
-        if let Some(Ok(shape)) = self.shapes.remove(&mesh) {
-            self.entities
-                .retain(|_, posed| !Arc::ptr_eq(&posed.shape, &shape));
+        for skinned in [false, true] {
+            if let Some(Ok(shape)) = self.shapes.remove(&(mesh, skinned)) {
+                self.entities
+                    .retain(|_, posed| !Arc::ptr_eq(&posed.shape, &shape));
+            }
         }
     }
 }
 
-/// Gives back an entity's posed tree when its `SkinnedMesh` goes (or the entity does).
-pub(crate) fn forget_unskinned(remove: On<Remove, SkinnedMesh>, posed: Res<AccelPosedMeshes>) {
+/// Gives back an entity's posed tree when its `SkinnedMesh` or `MeshMorphWeights` goes (or
+/// the entity does); a ray finds it again as it then is.
+pub(crate) fn forget_unposed(
+    remove: On<Remove, (SkinnedMesh, MeshMorphWeights)>,
+    posed: Res<AccelPosedMeshes>,
+) {
     let mut state = posed.lock();
     state.entities.remove(&remove.entity);
     state.warned.remove(&remove.entity);

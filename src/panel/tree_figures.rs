@@ -1,4 +1,5 @@
-//! The trees' figures: entities, nodes, depth, memory, quality, and what culling saw.
+//! The trees' figures: entities, nodes, depth, memory, quality, what culling saw, and the
+//! picking rays (with the skinned meshes' posed trees they refit).
 
 use crate::AccelStats;
 use bevy::ecs::system::SystemParam;
@@ -116,6 +117,9 @@ impl TreeFigures<'_> {
                         "picking rays / hits",
                         format!("{} / {}", p.rays, p.hits),
                     );
+                    // Skinned meshes hit at their posed vertices: how many posed triangle
+                    // trees the rays refit this frame (none while no ray reaches a mover).
+                    row(ui, "  posed meshes refit", format!("{}", p.posed_refits));
                 }
             });
     }

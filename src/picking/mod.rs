@@ -161,7 +161,7 @@ impl Plugin for AccelPickingPlugin {
                     .run_if(resource_exists::<Messages<PointerHits>>),
             );
         meshes::add_slot_mesh_observers(app);
-        app.add_observer(meshes::forget_unskinned);
+        app.add_observer(meshes::forget_unposed);
     }
 
     fn finish(&self, app: &mut App) {

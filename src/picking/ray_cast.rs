@@ -1,7 +1,7 @@
 //! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
 
 use crate::meshes::{
-    AccelMeshCache, AccelPosedMeshes, CachedMesh, MeshShape, PosedState, SkinInputs,
+    AccelMeshCache, AccelPosedMeshes, CachedMesh, MeshShape, PosedState, Posing, SkinInputs,
     SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
 use crate::trees::placement;
@@ -12,6 +12,7 @@ use bevy::ecs::entity::Entities;
 use bevy::ecs::system::lifetimeless::Read;
 use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::math::{Ray3d, Vec3A};
+use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh2d, Mesh3d};
 use bevy::picking::mesh_picking::ray_cast::{
@@ -55,22 +56,28 @@ type BoundsTargetData = (
     Option<Read<ViewVisibility>>,
 );
 
-/// What a skinned candidate is read for (see [`crate::meshes::AccelPosedMeshes`]).
-type SkinnedTargetData = (
+/// What a posed candidate is read for (see [`crate::meshes::AccelPosedMeshes`]).
+type PosedTargetData = (
     Entity,
-    Read<SkinnedMesh>,
+    Option<Read<SkinnedMesh>>,
+    Option<Read<MeshMorphWeights>>,
     Read<Mesh3d>,
+    Read<GlobalTransform>,
     Read<InheritedVisibility>,
     Read<ViewVisibility>,
     Has<RayCastBackfaces>,
 );
 
-/// Skinned meshes, tested at their posed vertices beside the trees' candidates.
+/// The entities Bevy poses before drawing: skinned, or with morph weights.
+type PosedFilter = Or<(With<SkinnedMesh>, With<MeshMorphWeights>)>;
+
+/// Skinned and morphed meshes, tested at their posed vertices beside the trees' candidates.
 #[derive(SystemParam)]
 pub(crate) struct SkinnedTargets<'w, 's> {
     posed: Option<Res<'w, AccelPosedMeshes>>,
-    targets: Query<'w, 's, SkinnedTargetData>,
+    targets: Query<'w, 's, PosedTargetData, PosedFilter>,
     joints: Query<'w, 's, &'static GlobalTransform>,
+    morph_weights: Query<'w, 's, &'static MorphWeights>,
     bindposes: Option<Res<'w, Assets<SkinnedMeshInverseBindposes>>>,
     ticks: SystemChangeTick,
 }
@@ -292,10 +299,14 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                 meshes,
                 bindposes: skinned.bindposes.as_deref(),
                 joints: &skinned.joints,
+                morph_weights: &skinned.morph_weights,
                 this_run: skinned.ticks.this_run(),
             };
-            for (entity, skin, mesh3d, inherited, view, two_sided) in &skinned.targets {
-                if !state.update_pose(entity, mesh3d.id(), skin, &inputs)
+            for (entity, skin, morph, mesh3d, transform, inherited, view, two_sided) in
+                &skinned.targets
+            {
+                let posing = skin.map_or(Posing::MorphOnly(transform), Posing::Skin);
+                if !state.update_pose(entity, mesh3d.id(), posing, morph, &inputs)
                     || !counts(entity, Some(inherited), Some(view))
                 {
                     continue;
