@@ -1,9 +1,15 @@
 //! The ECS scene in the preview core's terms: the camera, the lights, the materials and the
 //! objects by tree slot.
 
-use super::scene::{PreviewMesh, PreviewObject, PreviewObjects};
+use super::scene::{PosedPreviewObject, PreviewMesh, PreviewObject, PreviewObjects};
 use crate::AccelTrees;
-use crate::picking::{AccelMeshCache, MeshShape};
+use crate::meshes::{Posing, SkinInputs};
+use crate::picking::{AccelMeshCache, AccelPosedMeshes, MeshShape};
+use bevy::ecs::entity::EntityHashSet;
+use bevy::ecs::system::SystemChangeTick;
+use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use spatial_accel::preview::MeshSurface;
 use bevy::camera::Exposure;
 use bevy::ecs::system::SystemParam;
 use bevy::image::Image;
@@ -22,6 +28,20 @@ pub(super) type ViewItem = (
     &'static GlobalTransform,
     Option<&'static Exposure>,
 );
+
+/// A skinned or morphed entity: traced as Bevy draws it, posed.
+pub(super) type PosedItem = (
+    Entity,
+    Option<&'static SkinnedMesh>,
+    Option<&'static MeshMorphWeights>,
+    &'static Mesh3d,
+    &'static GlobalTransform,
+    Option<&'static MeshMaterial3d<StandardMaterial>>,
+    &'static InheritedVisibility,
+);
+
+/// The entities Bevy poses before drawing.
+pub(super) type PosedFilter = Or<(With<SkinnedMesh>, With<MeshMorphWeights>)>;
 
 /// What the preview reads of the world to build a frame's scene.
 #[derive(SystemParam)]
@@ -42,6 +62,12 @@ pub(super) struct PreviewWorld<'w, 's> {
             &'static InheritedVisibility,
         ),
     >,
+    posed: Res<'w, AccelPosedMeshes>,
+    pub(super) posed_targets: Query<'w, 's, PosedItem, PosedFilter>,
+    joints: Query<'w, 's, &'static GlobalTransform>,
+    morph_weights: Query<'w, 's, &'static MorphWeights>,
+    bindposes: Option<Res<'w, Assets<SkinnedMeshInverseBindposes>>>,
+    ticks: SystemChangeTick,
     directional: Query<'w, 's, (&'static DirectionalLight, &'static GlobalTransform)>,
     points: Query<'w, 's, (&'static PointLight, &'static GlobalTransform)>,
     spots: Query<'w, 's, (&'static SpotLight, &'static GlobalTransform)>,
@@ -125,7 +151,65 @@ impl PreviewWorld<'_, '_> {
         objects.meshes.retain(|id, _| self.cache.contains(*id));
         let mut materials = Vec::new();
         let mut material_ids = HashMap::<AssetId<StandardMaterial>, u32>::default();
+        let mut material_index = |handle: Option<&MeshMaterial3d<StandardMaterial>>| match handle
+        {
+            None => u32::MAX,
+            Some(handle) => *material_ids.entry(handle.0.id()).or_insert_with(|| {
+                materials.push(self.material(handle.0.id(), images, textures));
+                materials.len() as u32 - 1
+            }),
+        };
+        // Posed entities first, each posed as the picking plugin poses it for rays.
+        objects.posed.clear();
+        let mut posed_entities = EntityHashSet::default();
+        let inputs = SkinInputs {
+            meshes: &self.meshes,
+            bindposes: self.bindposes.as_deref(),
+            joints: &self.joints,
+            morph_weights: &self.morph_weights,
+            this_run: self.ticks.this_run(),
+        };
+        let mut state = self.posed.lock();
+        for (entity, skin, morph, mesh, tf, material, visible) in &self.posed_targets {
+            let posing = skin.map_or(Posing::MorphOnly(tf), Posing::Skin);
+            if !state.update_pose(entity, mesh.0.id(), posing, morph, &inputs) {
+                continue;
+            }
+            // Posed or not, the walk leaves it to this list (a pose it cannot read is not
+            // traced unposed: the trace shows what Bevy draws or nothing).
+            posed_entities.insert(entity);
+            let Some(slot) = self.trees.location(entity).map(|(slot, _)| slot) else {
+                continue;
+            };
+            if !visible.get() {
+                continue;
+            }
+            let crate::meshes::PosedState {
+                entities, refits, ..
+            } = &mut *state;
+            let Some(posed) = entities.get_mut(&entity) else {
+                continue;
+            };
+            let shape = posed.shape.clone();
+            let Some(bvh) = posed.posed_bvh(refits) else {
+                continue;
+            };
+            let mut surface = MeshSurface::new(bvh.positions().to_vec(), shape.topology.to_vec())
+                .with_smooth_normals();
+            surface.uvs = shape.uvs.clone();
+            objects.posed.push(PosedPreviewObject {
+                slot,
+                bvh: bvh.mesh_bvh().clone(),
+                surface,
+                bounds: bvh.bounds(),
+                material: material_index(material),
+            });
+        }
+        drop(state);
         for (entity, slot) in self.trees.iter() {
+            if posed_entities.contains(&entity) {
+                continue;
+            }
             let Ok((mesh, tf, material, visible)) = self.renderables.get(entity) else {
                 continue;
             };
@@ -144,13 +228,7 @@ impl PreviewWorld<'_, '_> {
                     _ => continue,
                 },
             };
-            let material = match material {
-                None => u32::MAX,
-                Some(handle) => *material_ids.entry(handle.0.id()).or_insert_with(|| {
-                    materials.push(self.material(handle.0.id(), images, textures));
-                    materials.len() as u32 - 1
-                }),
-            };
+            let material = material_index(material);
             let world_from_local = tf.affine();
             objects.by_slot[slot as usize] =
                 PreviewObject::new(preview_mesh, world_from_local, material);

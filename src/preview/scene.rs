@@ -3,12 +3,12 @@
 
 use crate::AccelTrees;
 use crate::picking::CachedMesh;
-use bevy::math::{Affine3A, Mat3A};
+use bevy::math::{Affine3A, Mat3A, Vec3A};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
-use spatial_accel::mesh::{CountedHit, TraversalCost};
+use spatial_accel::mesh::{CountedHit, MeshBvh, MeshHit, TraversalCost};
 use spatial_accel::preview::{MeshSurface, PreviewScene, SurfaceHit};
-use spatial_accel::{Backfaces, Ray, SpatialQuery};
+use spatial_accel::{Aabb, Backfaces, Ray, SpatialQuery};
 use std::sync::Arc;
 
 /// One mesh's BVH and the vertex data shading reads.
@@ -66,11 +66,44 @@ impl PreviewObject {
     }
 }
 
-/// The preview's objects by tree slot, and the meshes they share.
+/// A skinned or morphed entity, posed as Bevy draws it: its triangles in world space, a
+/// copy of its posed tree taken when the trace started, and the box around them.
+pub(super) struct PosedPreviewObject {
+    /// The entity's tree slot: hits name their object by slot, as the others' do.
+    pub(super) slot: u32,
+    pub(super) bvh: MeshBvh,
+    pub(super) surface: MeshSurface,
+    pub(super) bounds: Aabb,
+    pub(super) material: u32,
+}
+
+impl PosedPreviewObject {
+    fn hit(&self, ray: &Ray) -> Option<MeshHit> {
+        ray.intersect_aabb(&self.bounds)?;
+        self.bvh.cast_ray(ray, Backfaces::Include)
+    }
+
+    fn surface_hit(&self, ray: &Ray, hit: &MeshHit) -> SurfaceHit {
+        let mut hit = *hit;
+        hit.geometric_normal = hit.geometric_normal.try_normalize().unwrap_or(Vec3A::Y);
+        self.surface.surface_hit(
+            ray,
+            self.slot,
+            self.material,
+            &Affine3A::IDENTITY,
+            &Mat3A::IDENTITY,
+            &hit,
+        )
+    }
+}
+
+/// The preview's objects by tree slot, the meshes they share, and the posed objects (which
+/// the trees' walk skips: their tree boxes are Bevy's, which a pose can leave).
 #[derive(Default)]
 pub(super) struct PreviewObjects {
     pub(super) by_slot: Vec<Option<PreviewObject>>,
     pub(super) meshes: HashMap<AssetId<Mesh>, Arc<PreviewMesh>>,
+    pub(super) posed: Vec<PosedPreviewObject>,
 }
 
 /// The scene the tracer sees: the trees over the objects.
@@ -87,6 +120,16 @@ impl EntityPreviewScene<'_> {
 
 impl PreviewScene for EntityPreviewScene<'_> {
     fn closest(&self, ray: &Ray) -> Option<SurfaceHit> {
+        // The posed objects first: their nearest hit bounds the trees' walk.
+        let mut posed_best: Option<(&PosedPreviewObject, MeshHit)> = None;
+        let mut ray = *ray;
+        for object in &self.objects.posed {
+            if let Some(hit) = object.hit(&ray) {
+                ray.t_max = hit.t;
+                posed_best = Some((object, hit));
+            }
+        }
+        let ray = &ray;
         let mut best = None;
         let hit = self.trees.query().cast_ray(ray, |slot, r| {
             let object = self.object(slot)?;
@@ -100,7 +143,10 @@ impl PreviewScene for EntityPreviewScene<'_> {
                 .cast_ray(&local, Backfaces::Include)?;
             best = Some((slot, hit));
             Some(hit.t)
-        })?;
+        });
+        let Some(hit) = hit else {
+            return posed_best.map(|(object, hit)| object.surface_hit(ray, &hit));
+        };
         // The walk may settle a tie on another entity than the last one the closure saw:
         // then the winner's hit is found again.
         let (slot, mut mesh_hit) = match best {
@@ -132,7 +178,13 @@ impl PreviewScene for EntityPreviewScene<'_> {
 
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         let ray = ray.with_t_max(ray.t_max.min(t_max));
-        self.trees
+        let posed_blocks = self.objects.posed.iter().any(|object| {
+            ray.intersect_aabb(&object.bounds).is_some()
+                && object.bvh.cast_ray_any(&ray, Backfaces::Include)
+        });
+        posed_blocks
+            || self
+                .trees
             .query()
             .cast_ray_any(&ray, |slot, r| {
                 let Some(object) = self.object(slot) else {

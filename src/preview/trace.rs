@@ -87,6 +87,8 @@ pub(super) fn trace_preview(
         || state.settings.as_ref() != Some(&*settings)
         || world.trees.is_changed()
         || !moved.is_empty()
+        // A posed entity moves with its joints, whose changes `moved` does not see.
+        || !world.posed_targets.is_empty()
         || assets_changed;
     if restart {
         if assets_changed {
