@@ -126,6 +126,10 @@ const SUITES: &[(&str, &str)] = &[
         "per-ray time of mesh and bounds casts against `MeshRayCast` (a wrong mesh hit is a failure)",
     ),
     (
+        "selection",
+        "box selection through the trees against projecting every unit's box, per mode",
+    ),
+    (
         "sync",
         "the trees' upkeep per frame for each index choice, against the least any upkeep costs",
     ),

@@ -4,7 +4,7 @@
 //!
 //! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
 //! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
-//! `picking`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
+//! `picking`, `selection`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
 //! systems where Bevy has them.
 
 pub mod build;
@@ -19,6 +19,7 @@ pub mod preview;
 pub mod rays;
 pub mod rounds;
 pub mod scenery;
+pub mod selection;
 pub mod static_builds;
 pub mod stress;
 pub mod structures;
@@ -52,6 +53,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "picking" => picking::run(opts.quick),
         "sync" => sync::run(opts.quick),
         "scenery" => scenery::run(opts.quick),
+        "selection" => selection::run(opts.quick),
         #[cfg(feature = "light_culling")]
         "lights" => lights::run(opts.quick),
         "walks" => walks::run(opts.quick),
