@@ -63,8 +63,8 @@
 //! - [`index`]: [`EntityIndex`], the structures that hold the slots, queried as one.
 //! - `systems`: the frame's sync and upkeep, in the sets of [`AccelSystems`].
 //! - `spatial_query`: [`AccelSpatialQuery`], overlap and nearest queries for any system.
-//! - [`culling`], [`picking`], [`overlays`], [`panel`], [`preview`]: the services, each its
-//!   plugin and cargo feature.
+//! - [`culling`], [`picking`], [`selection`], [`overlays`], [`panel`], [`preview`]: the
+//!   services, each its plugin and cargo feature.
 #![warn(missing_docs)]
 
 mod components;
@@ -82,6 +82,8 @@ pub mod picking;
 mod plugin;
 #[cfg(feature = "preview")]
 pub mod preview;
+#[cfg(feature = "selection")]
+pub mod selection;
 mod settings;
 mod spatial_query;
 mod stats;
@@ -113,6 +115,12 @@ pub use plugin::{AccelPlugin, AccelPlugins};
 pub use preview::{
     AccelPreviewMode, AccelPreviewPlugin, AccelPreviewSettings, AccelPreviewStats,
     AccelPreviewSystems, PreviewPlacement,
+};
+#[cfg(feature = "selection")]
+pub use selection::{
+    AccelSelection, AccelSelectionDrag, AccelSelectionPlugin, AccelSelectionSettings,
+    AccelSelectionSystems, Selected, SelectionChanged, SelectionError, SelectionMode,
+    SelectionOrder,
 };
 pub use settings::{AccelSettings, StaticTreeBuild};
 pub use spatial_accel;
@@ -149,6 +157,12 @@ pub mod prelude {
     pub use crate::{
         AccelPreviewMode, AccelPreviewPlugin, AccelPreviewSettings, AccelPreviewStats,
         AccelPreviewSystems, PreviewPlacement,
+    };
+    #[cfg(feature = "selection")]
+    pub use crate::{
+        AccelSelection, AccelSelectionDrag, AccelSelectionPlugin, AccelSelectionSettings,
+        AccelSelectionSystems, Selected, SelectionChanged, SelectionError, SelectionMode,
+        SelectionOrder,
     };
     #[cfg(feature = "sprite_picking")]
     pub use crate::{AccelSpritePickingMode, AccelSpritePickingPlugin, AccelSpritePickingSettings};

@@ -58,6 +58,7 @@ impl Plugin for AccelPlugin {
 /// [`AccelCullingPlugin`](crate::AccelCullingPlugin) (`culling`),
 /// [`AccelPickingPlugin`](crate::AccelPickingPlugin) (`picking`),
 /// [`AccelSpritePickingPlugin`](crate::AccelSpritePickingPlugin) (`sprite_picking`),
+/// [`AccelSelectionPlugin`](crate::AccelSelectionPlugin) (`selection`),
 /// [`AccelOverlaysPlugin`](crate::AccelOverlaysPlugin) (`overlays`, each overlay off until
 /// its setting turns it on), [`AccelPreviewPlugin`](crate::AccelPreviewPlugin) (`preview`,
 /// off until `F2` or its setting) and [`AccelPanelPlugin`](crate::AccelPanelPlugin) (`egui`,
@@ -92,6 +93,8 @@ impl PluginGroup for AccelPlugins {
         let group = group.add(crate::AccelPickingPlugin);
         #[cfg(feature = "sprite_picking")]
         let group = group.add(crate::AccelSpritePickingPlugin);
+        #[cfg(feature = "selection")]
+        let group = group.add(crate::AccelSelectionPlugin);
         #[cfg(feature = "overlays")]
         let group = group.add(crate::AccelOverlaysPlugin);
         #[cfg(feature = "preview")]

@@ -133,6 +133,10 @@ const SUITES: &[(&str, &str)] = &[
         "picking animated characters at their posed vertices against `MeshRayCast` and baking",
     ),
     (
+        "selection",
+        "box selection through the trees against projecting every unit's box, per mode",
+    ),
+    (
         "sync",
         "the trees' upkeep per frame for each index choice, against the least any upkeep costs",
     ),

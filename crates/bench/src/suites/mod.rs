@@ -4,8 +4,8 @@
 //!
 //! `stress`, `build`, `update`, `rays`, `meshes`, `walks`, `preview`, `geometry`,
 //! `structures` and `triangles` measure the core crate alone; `frame`, `culling`, `lights`,
-//! `picking`, `skinned`, `sync` and `scenery` run the plugin in headless Bevy apps, against Bevy's own
-//! systems where Bevy has them.
+//! `picking`, `skinned`, `selection`, `sync` and `scenery` run the plugin in headless Bevy
+//! apps, against Bevy's own systems where Bevy has them.
 
 pub mod build;
 pub mod culling;
@@ -19,6 +19,7 @@ pub mod preview;
 pub mod rays;
 pub mod rounds;
 pub mod scenery;
+pub mod selection;
 pub mod skinned;
 pub mod static_builds;
 pub mod stress;
@@ -54,6 +55,7 @@ pub fn run(name: &str, opts: &Options) -> Report {
         "skinned" => skinned::run(opts.quick),
         "sync" => sync::run(opts.quick),
         "scenery" => scenery::run(opts.quick),
+        "selection" => selection::run(opts.quick),
         #[cfg(feature = "light_culling")]
         "lights" => lights::run(opts.quick),
         "walks" => walks::run(opts.quick),
