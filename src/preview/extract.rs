@@ -5,17 +5,17 @@ use super::scene::{PosedPreviewObject, PreviewMesh, PreviewObject, PreviewObject
 use crate::AccelTrees;
 use crate::meshes::{Posing, SkinInputs};
 use crate::picking::{AccelMeshCache, AccelPosedMeshes, MeshShape};
+use bevy::camera::Exposure;
 use bevy::ecs::entity::EntityHashSet;
 use bevy::ecs::system::SystemChangeTick;
-use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
-use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
-use spatial_accel::preview::MeshSurface;
-use bevy::camera::Exposure;
 use bevy::ecs::system::SystemParam;
 use bevy::image::Image;
 use bevy::light::GlobalAmbientLight;
+use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use spatial_accel::preview::MeshSurface;
 use spatial_accel::preview::{
     PreviewCamera, PreviewLight, PreviewMaterial, Texture, TextureFilter,
 };
@@ -151,8 +151,7 @@ impl PreviewWorld<'_, '_> {
         objects.meshes.retain(|id, _| self.cache.contains(*id));
         let mut materials = Vec::new();
         let mut material_ids = HashMap::<AssetId<StandardMaterial>, u32>::default();
-        let mut material_index = |handle: Option<&MeshMaterial3d<StandardMaterial>>| match handle
-        {
+        let mut material_index = |handle: Option<&MeshMaterial3d<StandardMaterial>>| match handle {
             None => u32::MAX,
             Some(handle) => *material_ids.entry(handle.0.id()).or_insert_with(|| {
                 materials.push(self.material(handle.0.id(), images, textures));

@@ -185,22 +185,22 @@ impl PreviewScene for EntityPreviewScene<'_> {
         posed_blocks
             || self
                 .trees
-            .query()
-            .cast_ray_any(&ray, |slot, r| {
-                let Some(object) = self.object(slot) else {
-                    return false;
-                };
-                if r.intersect_aabb(&self.trees.world_bounds(slot)).is_none() {
-                    return false;
-                }
-                let local = r.transformed(&object.local_from_world);
-                object
-                    .mesh
-                    .cached
-                    .bvh
-                    .cast_ray_any(&local, Backfaces::Include)
-            })
-            .is_some()
+                .query()
+                .cast_ray_any(&ray, |slot, r| {
+                    let Some(object) = self.object(slot) else {
+                        return false;
+                    };
+                    if r.intersect_aabb(&self.trees.world_bounds(slot)).is_none() {
+                        return false;
+                    }
+                    let local = r.transformed(&object.local_from_world);
+                    object
+                        .mesh
+                        .cached
+                        .bvh
+                        .cast_ray_any(&local, Backfaces::Include)
+                })
+                .is_some()
     }
 
     /// The entity trees' walk does not count its nodes: the cost here is each entity whose
