@@ -26,8 +26,10 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use spatial_accel::Aabb;
 use spatial_accel::mesh::{
-    MorphTargets, PosedMeshBvh, SkinBounds, SkinnedVertices, joint_matrices, skin_positions,
+    MeshHit, MorphTargets, PosedMeshBvh, SkinBounds, SkinSegments, SkinnedVertices, joint_matrices,
+    skin_positions,
 };
+use spatial_accel::{Backfaces, Ray};
 use std::sync::{Arc, Mutex, PoisonError};
 
 /// One posed mesh asset's vertex data, read once and shared by every entity that uses it.
@@ -51,6 +53,8 @@ pub struct SkinnedShape {
     pub morph_targets: usize,
     /// The box of any pose, from the joints' matrices and the morph weights alone.
     pub bounds: SkinBounds,
+    /// The triangles by joint, for rays that meet a pose once (picking).
+    pub segments: SkinSegments,
 }
 
 impl SkinnedShape {
@@ -110,6 +114,8 @@ impl SkinnedShape {
         };
         let bounds = SkinBounds::new(&vertices, &morph_displacements, morph_targets)
             .map_err(|e| e.to_string())?;
+        let segments = SkinSegments::new(&vertices, &morph_displacements, morph_targets, &indices)
+            .map_err(|e| e.to_string())?;
         let uvs = match attribute(Mesh::ATTRIBUTE_UV_0) {
             Some(VertexAttributeValues::Float32x2(uvs)) => {
                 Some(uvs.iter().copied().map(Vec2::from).collect())
@@ -125,6 +131,7 @@ impl SkinnedShape {
             morph_displacements,
             morph_targets,
             bounds,
+            segments,
         })
     }
 
@@ -171,6 +178,51 @@ pub(crate) struct PosedEntity {
 }
 
 impl PosedEntity {
+    /// The nearest hit of `ray` on the pose last read, and the hit triangle's posed corners:
+    /// only the segments the ray reaches are skinned (see [`SkinSegments`]), which is what a
+    /// pose met by one ray, a pointer's, should cost. `None` for a miss or a pose that cannot
+    /// be skinned.
+    pub(crate) fn cast_ray(
+        &self,
+        ray: &Ray,
+        backfaces: Backfaces,
+        scratch: &mut Vec<Vec3>,
+    ) -> Option<(MeshHit, [Vec3; 3])> {
+        let shape = &self.shape;
+        let vertices = shape.vertices();
+        let hit = shape
+            .segments
+            .cast_ray(
+                ray,
+                backfaces,
+                &vertices,
+                &self.joints,
+                &self.morph_weights,
+                scratch,
+            )
+            .ok()??;
+        // The hit triangle's corners, posed alone.
+        let corners = shape.triangle_indices(hit.triangle).map(|i| i as usize);
+        let n = shape.positions.len();
+        let positions = corners.map(|v| shape.positions[v]);
+        let joints = corners.map(|v| shape.joint_indices[v]);
+        let weights = corners.map(|v| shape.joint_weights[v]);
+        let morph: Vec<Vec3> = (0..shape.morph_targets)
+            .flat_map(|t| corners.map(|v| shape.morph_displacements[t * n + v]))
+            .collect();
+        let three = SkinnedVertices {
+            positions: &positions,
+            joint_indices: &joints,
+            joint_weights: &weights,
+        };
+        let morph = (shape.morph_targets > 0).then_some(MorphTargets {
+            weights: &self.morph_weights,
+            displacements: &morph,
+        });
+        skin_positions(&three, &self.joints, morph, scratch).ok()?;
+        Some((hit, [scratch[0], scratch[1], scratch[2]]))
+    }
+
     /// The posed tree for the pose last read: built, or refit if the pose changed since.
     /// `None` when the pose cannot be skinned.
     pub(crate) fn posed_bvh(&mut self, refits: &mut usize) -> Option<&PosedMeshBvh> {
@@ -203,8 +255,11 @@ pub(crate) struct PosedState {
     /// Entities whose pose could not be read, so they are tested unposed: warned about once
     /// each.
     warned: EntityHashMap<()>,
-    /// Posed trees built or refit since the stats last took the count.
+    /// Posed entities skinned for rays (their reached segments, or their whole tree
+    /// refit) since the stats last took the count.
     pub(crate) refits: usize,
+    /// A segment's posed vertices, between rays.
+    pub(crate) scratch: Vec<Vec3>,
 }
 
 /// The posed trees of skinned and morphed entities behind

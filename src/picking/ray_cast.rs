@@ -406,8 +406,8 @@ impl<'w, 's> AccelRayCast<'w, 's> {
     }
 }
 
-/// The nearest hit on a skinned entity's posed triangles, with the entry distance into its
-/// posed box; the posed tree is built or refit first if its pose changed. In world space:
+/// The nearest hit on a posed entity's triangles, with the entry distance into its posed
+/// box; only the mesh's segments the ray reaches are skinned. In world space:
 /// the normal is the posed triangle's unit geometric normal (the vertex normals are the
 /// bind pose's), the triangle its posed corners.
 fn posed_hit(
@@ -417,21 +417,23 @@ fn posed_hit(
     two_sided: bool,
 ) -> Option<(f32, RayMeshHit)> {
     let PosedState {
-        entities, refits, ..
+        entities,
+        refits,
+        scratch,
+        ..
     } = state;
-    let posed = entities.get_mut(&entity)?;
+    let posed = entities.get(&entity)?;
     let entry = world.intersect_aabb(&posed.bound)?;
-    let shape = posed.shape.clone();
-    let bvh = posed.posed_bvh(refits)?;
     let backfaces = if two_sided {
         Backfaces::Include
     } else {
         Backfaces::Cull
     };
-    let hit = bvh.cast_ray(world, backfaces)?;
+    *refits += 1;
+    let (hit, corners) = posed.cast_ray(world, backfaces, scratch)?;
+    let shape = &posed.shape;
     let [ia, ib, ic] = shape.triangle_indices(hit.triangle).map(|i| i as usize);
     let [w, u, v] = hit.barycentrics;
-    let positions = bvh.positions();
     let uv = shape
         .uvs
         .as_ref()
@@ -443,7 +445,7 @@ fn posed_hit(
             normal: Vec3::from(hit.geometric_normal),
             barycentric_coords: Vec3::new(w, u, v),
             distance: hit.t,
-            triangle: Some([positions[ia], positions[ib], positions[ic]]),
+            triangle: Some(corners),
             uv,
             triangle_index: Some(hit.triangle as usize),
         },

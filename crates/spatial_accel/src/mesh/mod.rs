@@ -28,6 +28,7 @@ mod sbvh_spatial;
 mod scene;
 mod scene_update;
 mod skin_bounds;
+mod skin_segments;
 mod skinning;
 
 pub use counted::{CountedHit, TraversalCost};
@@ -39,6 +40,7 @@ pub use scene::{Instance, InstanceHit, InstancedScene};
 pub(crate) use scene::{instance_world_box, is_placeable};
 pub use scene_update::SceneUpdateError;
 pub use skin_bounds::SkinBounds;
+pub use skin_segments::SkinSegments;
 pub use skinning::{
     MorphTargets, SkinnedVertices, SkinningError, SkinningInput, joint_matrices, morph_positions,
     skin_positions,

@@ -54,6 +54,12 @@ pub enum SkinningError {
     /// A bound of the posed mesh is not finite (see
     /// [`SkinBounds::bound`](super::SkinBounds::bound)).
     NonFiniteBound,
+    /// A triangle names a vertex the mesh does not have, or the index count is not a
+    /// multiple of three (see [`SkinSegments::new`](super::SkinSegments::new)).
+    BadTriangle {
+        /// The first such triangle (the index count over three for a trailing remainder).
+        triangle: usize,
+    },
 }
 
 impl fmt::Display for SkinningError {
@@ -76,6 +82,12 @@ impl fmt::Display for SkinningError {
                 write!(f, "vertex {vertex} is posed at a non-finite position")
             }
             Self::NonFiniteBound => write!(f, "the bound of the posed mesh is not finite"),
+            Self::BadTriangle { triangle } => {
+                write!(
+                    f,
+                    "triangle {triangle} names vertices the mesh does not have"
+                )
+            }
         }
     }
 }

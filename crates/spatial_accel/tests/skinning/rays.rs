@@ -323,3 +323,110 @@ fn failed_poses_change_nothing() {
     let moved = posed.cast_ray(&ray, Backfaces::Include).unwrap();
     assert!((moved.t - hit.t - 1.0).abs() < 1e-5 && moved.triangle == hit.triangle);
 }
+
+/// The tube cut into segments by joint, with two morph targets, posed anew each frame: a
+/// ray skins and tests only the segments it reaches, and answers as brute force over every
+/// posed triangle (the nearest distance, a triangle hit there); a segment test that skipped
+/// a segment it should reach would answer some rays with a farther hit or none.
+#[test]
+fn segments_answer_as_the_posed_triangles() {
+    use spatial_accel::mesh::{MorphTargets, SkinSegments, skin_positions};
+    let mut rng = Rng::new(0x5e9);
+    let (joint_count, seg) = (6usize, 1.0f32);
+    let (positions, indices) = tube(30, 16, seg * (joint_count - 1) as f32);
+    let n = positions.len();
+    let (mut joint_indices, mut joint_weights) = (Vec::new(), Vec::new());
+    for p in &positions {
+        let u = (p.y / seg).clamp(0.0, (joint_count - 1) as f32);
+        let k = (u as usize).min(joint_count - 2);
+        let f = u - k as f32;
+        let scale = rng.range(0.8, 1.2);
+        joint_indices.push([k as u16, k as u16 + 1, 0, 0]);
+        joint_weights.push([(1.0 - f) * scale, f * scale, 0.0, 0.0]);
+    }
+    let vertices = SkinnedVertices {
+        positions: &positions,
+        joint_indices: &joint_indices,
+        joint_weights: &joint_weights,
+    };
+    let displacements: Vec<Vec3> = (0..2 * n)
+        .map(|_| {
+            Vec3::new(
+                rng.range(-0.3, 0.3),
+                rng.range(-0.3, 0.3),
+                rng.range(-0.3, 0.3),
+            )
+        })
+        .collect();
+    let segments = SkinSegments::new(&vertices, &displacements, 2, &indices).unwrap();
+    assert!(segments.segment_count() >= joint_count - 2);
+    let inverse_bindposes: Vec<Mat4> = (0..joint_count)
+        .map(|k| Mat4::from_translation(Vec3::Y * -(k as f32) * seg))
+        .collect();
+    let (mut globals, mut joints, mut posed, mut scratch) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut rays, mut hits) = (0, 0);
+    for _ in 0..40 {
+        globals.clear();
+        for k in 0..joint_count {
+            let axis: Vec3 = rng.unit_vector().into();
+            let scale = Vec3::new(
+                rng.range(0.6, 1.4),
+                rng.range(0.6, 1.4),
+                rng.range(0.6, 1.4),
+            ) * if rng.below(5) == 0 { -1.0 } else { 1.0 };
+            let local = Mat4::from_scale_rotation_translation(
+                scale,
+                Quat::from_axis_angle(axis, rng.range(-1.5, 1.5)),
+                if k == 0 { Vec3::ZERO } else { Vec3::Y * seg },
+            );
+            let parent = globals.last().copied().unwrap_or(Mat4::IDENTITY);
+            globals.push(parent * local);
+        }
+        joint_matrices(&globals, &inverse_bindposes, &mut joints);
+        let weights = [rng.range(-1.0, 1.0), rng.range(0.0, 2.0)];
+        let morph = MorphTargets {
+            weights: &weights,
+            displacements: &displacements,
+        };
+        skin_positions(&vertices, &joints, Some(morph), &mut posed).unwrap();
+        let brute = BruteForceMesh::new(&posed, &indices).unwrap();
+        let b = brute.bounds();
+        let around = (b.min - 2.0, b.max + 2.0);
+        let mut all = Vec::new();
+        for _ in 0..40 {
+            let ray = ray_at_surface(&mut rng, &posed, &indices, around);
+            for bf in [Backfaces::Include, Backfaces::Cull] {
+                let want = brute.cast_ray(&ray, bf);
+                let got = segments
+                    .cast_ray(&ray, bf, &vertices, &joints, &weights, &mut scratch)
+                    .unwrap();
+                assert_eq!(got.map(|h| h.t), want.map(|h| h.t), "{ray:?} {bf:?}");
+                if let Some(h) = got {
+                    all.clear();
+                    brute.cast_ray_all(&ray, bf, &mut all);
+                    assert!(all.iter().any(|w| w.t == h.t && w.triangle == h.triangle));
+                    hits += 1;
+                }
+                rays += 1;
+            }
+        }
+    }
+    assert!(hits * 2 > rays, "{hits} of {rays} rays hit");
+    // Malformed input is an error, never a panic.
+    assert!(SkinSegments::new(&vertices, &displacements, 2, &[0, 1, n as u32]).is_err());
+    assert!(SkinSegments::new(&vertices, &displacements, 3, &indices).is_err());
+    let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+    assert!(
+        segments
+            .cast_ray(
+                &ray,
+                Backfaces::Cull,
+                &vertices,
+                &joints,
+                &[0.0],
+                &mut scratch
+            )
+            .is_err()
+    );
+}
