@@ -151,6 +151,8 @@ impl SkinnedShape {
     }
 
     /// The morph targets with `weights` (one per target), if the mesh has any.
+    // For the posed trees, which only the preview builds.
+    #[cfg_attr(not(feature = "preview"), allow(dead_code))]
     fn morph<'a>(&'a self, weights: &'a [f32]) -> Option<MorphTargets<'a>> {
         (self.morph_targets > 0).then_some(MorphTargets {
             weights,
@@ -172,6 +174,7 @@ pub(crate) struct PosedEntity {
     /// The posed tree, built at the first ray that reaches the entity.
     pub(crate) bvh: Option<PosedMeshBvh>,
     /// The matrices and morph weights `bvh` was posed with.
+    #[cfg_attr(not(feature = "preview"), allow(dead_code))]
     posed_with: (Vec<Mat4>, Vec<f32>),
     /// The system run whose pose `joints` and `morph_weights` hold.
     read_at: Tick,
@@ -225,6 +228,8 @@ impl PosedEntity {
 
     /// The posed tree for the pose last read: built, or refit if the pose changed since.
     /// `None` when the pose cannot be skinned.
+    // Only the preview traces posed trees (picking skins segments, see `cast_ray`).
+    #[cfg_attr(not(feature = "preview"), allow(dead_code))]
     pub(crate) fn posed_bvh(&mut self, refits: &mut usize) -> Option<&PosedMeshBvh> {
         let shape = &self.shape;
         let morph = shape.morph(&self.morph_weights);
