@@ -75,7 +75,12 @@ fn random_local(rng: &mut Rng, rest: Vec3) -> Transform {
     }
 }
 
-fn spawn_characters(app: &mut App, c: &SkinnedCharacter, rng: &mut Rng) -> Vec<Character> {
+fn spawn_characters(
+    app: &mut App,
+    c: &SkinnedCharacter,
+    rng: &mut Rng,
+    dynamic_bounds: bool,
+) -> Vec<Character> {
     let rest = accel_testkit::skinned::rest_pose();
     let bindposes = app
         .world_mut()
@@ -92,10 +97,14 @@ fn spawn_characters(app: &mut App, c: &SkinnedCharacter, rng: &mut Rng) -> Vec<C
                 .map(|w| w.map(|w| w * rng.range(0.7, 1.3)))
                 .collect()
         };
-        let mesh = app
-            .world_mut()
-            .resource_mut::<Assets<Mesh>>()
-            .add(bevy_mesh(c, &weights));
+        let mut asset = bevy_mesh(c, &weights);
+        if dynamic_bounds {
+            // As Bevy's glTF loader makes them: skinned bounds, no morph targets (Bevy's box
+            // leaves morphs out, so those characters keep the plugin's own broad phase).
+            asset.set_morph_targets(Vec::new());
+            asset.generate_skinned_mesh_bounds().unwrap();
+        }
+        let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(asset);
         let root = app
             .world_mut()
             .spawn(Transform::from_xyz(
@@ -129,6 +138,11 @@ fn spawn_characters(app: &mut App, c: &SkinnedCharacter, rng: &mut Rng) -> Vec<C
                 MeshMorphWeights::Value { weights: vec![0.0] },
             ))
             .id();
+        if dynamic_bounds {
+            app.world_mut()
+                .entity_mut(mesh)
+                .insert(bevy::camera::visibility::DynamicSkinnedMeshBounds);
+        }
         out.push(Character { mesh, joints });
     }
     out
@@ -212,10 +226,22 @@ fn brute_force(ray: Ray3d, posed: &[(Entity, Vec<[Vec3; 3]>)]) -> Option<(Entity
 
 #[test]
 fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
+    check_posed_picking(false);
+}
+
+/// With Bevy's `DynamicSkinnedMeshBounds`, characters whose weights are glTF's are found by
+/// the trees through Bevy's posed box and posed only when reached; the others (weights not
+/// summing to one) keep the plugin's own broad phase. Both answer as the brute force.
+#[test]
+fn characters_with_bevys_posed_bounds_are_found_by_the_trees() {
+    check_posed_picking(true);
+}
+
+fn check_posed_picking(dynamic_bounds: bool) {
     let mut app = common::app();
     let c = character(Detail::for_triangles(2_000));
     let mut rng = Rng::new(73);
-    let chars = spawn_characters(&mut app, &c, &mut rng);
+    let chars = spawn_characters(&mut app, &c, &mut rng, dynamic_bounds);
     let rest = accel_testkit::skinned::rest_pose();
     let (mut rays, mut ours_wrong, mut bevy_wrong, mut hits) = (0, 0, 0, 0);
     for frame in 0..6 {
@@ -223,11 +249,12 @@ fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
         if frame > 0 {
             for ch in &chars {
                 // Every other frame a large breath, on some characters.
-                let breath = if (frame + ch.joints.len()) % 2 == 0 && rng.below(2) == 0 {
-                    rng.range(-8.0, 8.0)
-                } else {
-                    0.0
-                };
+                let breath =
+                    if !dynamic_bounds && (frame + ch.joints.len()) % 2 == 0 && rng.below(2) == 0 {
+                        rng.range(-8.0, 8.0)
+                    } else {
+                        0.0
+                    };
                 *app.world_mut()
                     .get_mut::<MeshMorphWeights>(ch.mesh)
                     .unwrap() = MeshMorphWeights::Value {
@@ -302,12 +329,11 @@ fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
         bevy_wrong * 3 > rays,
         "Bevy wrong on only {bevy_wrong} of {rays}"
     );
-    assert!(
-        app.world()
-            .resource::<bevy_accel::picking::AccelPosedMeshes>()
-            .len()
-            == chars.len()
-    );
+    let posed = app
+        .world()
+        .resource::<bevy_accel::picking::AccelPosedMeshes>()
+        .len();
+    assert!(posed <= chars.len() && posed > 0, "{posed} posed");
 }
 
 #[test]

@@ -55,6 +55,13 @@ pub struct SkinnedShape {
     pub bounds: SkinBounds,
     /// The triangles by joint, for rays that meet a pose once (picking).
     pub segments: SkinSegments,
+    /// Whether Bevy's `DynamicSkinnedMeshBounds` box holds every posed vertex: the mesh has
+    /// Bevy's skinned bounds, no morph targets (which Bevy's box leaves out), and weights
+    /// that are non-negative and sum to one at every vertex (as glTF requires), which make
+    /// each posed vertex a blend of its joints' images of it, inside the joints' boxes that
+    /// Bevy unites. Such entities are found by the trees like any mesh, and posed only when
+    /// a ray reaches them.
+    pub bevy_bounds_hold: bool,
 }
 
 impl SkinnedShape {
@@ -116,6 +123,12 @@ impl SkinnedShape {
             .map_err(|e| e.to_string())?;
         let segments = SkinSegments::new(&vertices, &morph_displacements, morph_targets, &indices)
             .map_err(|e| e.to_string())?;
+        let bevy_bounds_hold = skinned
+            && morph_targets == 0
+            && mesh.skinned_mesh_bounds().is_some()
+            && joint_weights.iter().all(|w| {
+                w.iter().all(|&w| w >= 0.0) && (w.iter().sum::<f32>() - 1.0).abs() <= 1e-4
+            });
         let uvs = match attribute(Mesh::ATTRIBUTE_UV_0) {
             Some(VertexAttributeValues::Float32x2(uvs)) => {
                 Some(uvs.iter().copied().map(Vec2::from).collect())
@@ -132,6 +145,7 @@ impl SkinnedShape {
             morph_targets,
             bounds,
             segments,
+            bevy_bounds_hold,
         })
     }
 
@@ -348,6 +362,34 @@ impl PosedState {
         }
     }
 
+    /// Whether a skinned entity of `mesh` carrying `DynamicSkinnedMeshBounds` can be left to
+    /// the trees (see [`SkinnedShape::bevy_bounds_hold`]); false while the asset is missing.
+    pub(crate) fn bevy_bounds_hold(&mut self, mesh: AssetId<Mesh>, meshes: &Assets<Mesh>) -> bool {
+        self.shape(mesh, true, meshes)
+            .is_ok_and(|shape| shape.bevy_bounds_hold)
+    }
+
+    /// The shape of `mesh`, read on first use (one warning for a mesh that cannot be posed).
+    fn shape(
+        &mut self,
+        mesh: AssetId<Mesh>,
+        skinned: bool,
+        meshes: &Assets<Mesh>,
+    ) -> Result<Arc<SkinnedShape>, String> {
+        match self.shapes.get(&(mesh, skinned)) {
+            Some(shape) => shape.clone(),
+            None => {
+                let asset = meshes.get(mesh).ok_or("has no mesh asset yet")?;
+                let shape = SkinnedShape::from_mesh(asset, skinned)
+                    .map(Arc::new)
+                    .map_err(|reason| warn!("bevy_accel picking: mesh {mesh:?} {reason}"));
+                self.shapes.insert((mesh, skinned), shape.clone());
+                shape
+            }
+        }
+        .map_err(|()| "has a mesh that cannot be posed".to_string())
+    }
+
     fn read_pose(
         &mut self,
         entity: Entity,
@@ -357,18 +399,7 @@ impl PosedState {
         inputs: &SkinInputs,
     ) -> Result<(), String> {
         let skinned = matches!(posing, Posing::Skin(_));
-        let shape = match self.shapes.get(&(mesh, skinned)) {
-            Some(shape) => shape.clone(),
-            None => {
-                let asset = inputs.meshes.get(mesh).ok_or("has no mesh asset yet")?;
-                let shape = SkinnedShape::from_mesh(asset, skinned)
-                    .map(Arc::new)
-                    .map_err(|reason| warn!("bevy_accel picking: mesh {mesh:?} {reason}"));
-                self.shapes.insert((mesh, skinned), shape.clone());
-                shape
-            }
-        }
-        .map_err(|()| "has a mesh that cannot be posed".to_string())?;
+        let shape = self.shape(mesh, skinned, inputs.meshes)?;
         // Bevy's skin extraction: a joint without a transform or a bindpose is the identity.
         let (globals, bindposes): (Vec<Mat4>, &[Mat4]) = match posing {
             Posing::Skin(skin) => {

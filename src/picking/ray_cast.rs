@@ -7,8 +7,8 @@ use crate::meshes::{
 use crate::trees::placement;
 use crate::{AccelTrees, LocalFrame};
 use bevy::camera::primitives::Aabb as BevyAabb;
-use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
-use bevy::ecs::entity::Entities;
+use bevy::camera::visibility::{DynamicSkinnedMeshBounds, InheritedVisibility, ViewVisibility};
+use bevy::ecs::entity::{Entities, EntityHashSet};
 use bevy::ecs::system::lifetimeless::Read;
 use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::math::{Ray3d, Vec3A};
@@ -66,6 +66,7 @@ type PosedTargetData = (
     Read<InheritedVisibility>,
     Read<ViewVisibility>,
     Has<RayCastBackfaces>,
+    Has<DynamicSkinnedMeshBounds>,
 );
 
 /// The entities Bevy poses before drawing: skinned, or with morph weights.
@@ -80,6 +81,8 @@ pub(crate) struct SkinnedTargets<'w, 's> {
     morph_weights: Query<'w, 's, &'static MorphWeights>,
     bindposes: Option<Res<'w, Assets<SkinnedMeshInverseBindposes>>>,
     ticks: SystemChangeTick,
+    /// The posed entities this ray's first pass tested (the walk skips them).
+    tested: Local<'s, EntityHashSet>,
 }
 
 /// A hit found during traversal, before the blocking cut and the sort.
@@ -302,13 +305,21 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                 morph_weights: &skinned.morph_weights,
                 this_run: skinned.ticks.this_run(),
             };
-            for (entity, skin, morph, mesh3d, transform, inherited, view, two_sided) in
+            skinned.tested.clear();
+            for (entity, skin, morph, mesh3d, transform, inherited, view, two_sided, bevy_bounds) in
                 &skinned.targets
             {
+                // Left to the walk: the trees hold Bevy's posed box of such an entity.
+                if bevy_bounds && skin.is_some() && state.bevy_bounds_hold(mesh3d.id(), meshes) {
+                    continue;
+                }
                 let posing = skin.map_or(Posing::MorphOnly(transform), Posing::Skin);
-                if !state.update_pose(entity, mesh3d.id(), posing, morph, &inputs)
-                    || !counts(entity, Some(inherited), Some(view))
-                {
+                // One that cannot be posed is left to the walk, which tests it unposed.
+                if !state.update_pose(entity, mesh3d.id(), posing, morph, &inputs) {
+                    continue;
+                }
+                skinned.tested.insert(entity);
+                if !counts(entity, Some(inherited), Some(view)) {
                     continue;
                 }
                 let Some((entry, hit)) = posed_hit(state, entity, &world_ray, two_sided) else {
@@ -321,14 +332,43 @@ impl<'w, 's> AccelRayCast<'w, 's> {
                 }
             }
         }
-        let posed = posed.as_deref();
+        let mut posed = posed.as_deref_mut();
+        let tested = &skinned.tested;
+        let skin_inputs = SkinInputs {
+            meshes,
+            bindposes: skinned.bindposes.as_deref(),
+            joints: &skinned.joints,
+            morph_weights: &skinned.morph_weights,
+            this_run: skinned.ticks.this_run(),
+        };
         let skinned_cut = world_ray.t_max;
         let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
             let (entity, entry, hit) = match target {
                 Target::Meshes => {
                     let entity = trees.entity(slot)?;
-                    if posed.is_some_and(|p| p.entities.contains_key(&entity)) {
-                        return None;
+                    if let Some(state) = posed.as_deref_mut() {
+                        if tested.contains(&entity) {
+                            return None;
+                        }
+                        // A skinned entity the trees found by Bevy's posed box: posed now.
+                        if let Ok((_, Some(skin), morph, mesh3d, _, inherited, view, two_sided, _)) =
+                            skinned.targets.get(entity)
+                            && state.update_pose(
+                                entity,
+                                mesh3d.id(),
+                                Posing::Skin(skin),
+                                morph,
+                                &skin_inputs,
+                            )
+                        {
+                            if !counts(entity, Some(inherited), Some(view)) {
+                                return None;
+                            }
+                            let (entry, hit) = posed_hit(state, entity, r, two_sided)?;
+                            let distance = hit.distance;
+                            hits.push(PendingHit { entity, entry, hit });
+                            return (settings.early_exit_test)(entity).then_some(distance);
+                        }
                     }
                     // With the table on, the ECS is read only for the meshes a ray hits.
                     let known = slot_meshes.lookup(slot, entity);

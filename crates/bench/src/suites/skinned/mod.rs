@@ -74,6 +74,8 @@ const FULL: &[Size] = &[
     size(1_000, 5_000, false, 150),
     size(100, 20_000, false, 300),
     size(100, 5_000, true, 300),
+    size(1_000, 5_000, true, 150),
+    size(100, 20_000, true, 300),
 ];
 
 const QUICK: &[Size] = &[Size {
