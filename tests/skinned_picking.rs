@@ -224,6 +224,53 @@ fn brute_force(ray: Ray3d, posed: &[(Entity, Vec<[Vec3; 3]>)]) -> Option<(Entity
     best
 }
 
+/// A ray from `distance` away, in a random direction whose upward part lies in `rise`, at a
+/// random point of triangle `t` (barycentrics each below `reach`, clipped to the triangle).
+fn ray_at(
+    rng: &mut Rng,
+    t: [Vec3; 3],
+    reach: f32,
+    rise: (f32, f32),
+    distance: f32,
+) -> Option<Ray3d> {
+    let (a, b) = (rng.f32() * reach, rng.f32() * reach);
+    let (a, b) = if a + b > 1.0 {
+        (1.0 - a, 1.0 - b)
+    } else {
+        (a, b)
+    };
+    let target = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+    let away = Vec3::new(
+        rng.range(-1.0, 1.0),
+        rng.range(rise.0, rise.1),
+        rng.range(-1.0, 1.0),
+    )
+    .normalize_or(Vec3::Y);
+    let from = target + away * distance;
+    Some(Ray3d::new(from, Dir3::new(target - from).ok()?))
+}
+
+/// The nearest hit of `ray` through `AccelRayCast` (any visibility).
+fn ours(app: &mut App, ray: Ray3d) -> Option<(Entity, f32)> {
+    app.world_mut()
+        .run_system_once(move |mut ours: AccelRayCast| {
+            let any = MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
+            ours.cast_ray(ray, &any)
+                .first()
+                .map(|(e, h)| (*e, h.distance))
+        })
+        .unwrap()
+}
+
+/// The same first hit: the same entity at the same distance (within rounding).
+fn same(got: Option<(Entity, f32)>, want: Option<(Entity, f32)>) -> bool {
+    match (got, want) {
+        (None, None) => true,
+        (Some((e, d)), Some((we, wd))) => e == we && (d - wd).abs() <= 1e-4 * wd.max(1.0),
+        _ => false,
+    }
+}
+
 #[test]
 fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
     check_posed_picking(false);
@@ -272,53 +319,28 @@ fn check_posed_picking(dynamic_bounds: bool) {
             // A ray aimed at a random point of a random posed triangle.
             let (_, tris) = &posed[rng.below(posed.len())];
             let t = tris[rng.below(tris.len())];
-            let (a, b) = (rng.f32(), rng.f32());
-            let (a, b) = if a + b > 1.0 {
-                (1.0 - a, 1.0 - b)
-            } else {
-                (a, b)
-            };
-            let target = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
-            let from = target
-                + Vec3::new(
-                    rng.range(-1.0, 1.0),
-                    rng.range(-0.3, 1.0),
-                    rng.range(-1.0, 1.0),
-                )
-                .normalize_or(Vec3::Y)
-                    * 12.0;
-            let Ok(dir) = Dir3::new(target - from) else {
+            let Some(ray) = ray_at(&mut rng, t, 1.0, (-0.3, 1.0), 12.0) else {
                 continue;
             };
-            let ray = Ray3d::new(from, dir);
             let want = brute_force(ray, &posed);
-            let (ours, bevys) = app
+            let ours = ours(&mut app, ray);
+            let bevys = app
                 .world_mut()
-                .run_system_once(move |mut ours: AccelRayCast, mut bevy: MeshRayCast| {
-                    let settings =
+                .run_system_once(move |mut bevy: MeshRayCast| {
+                    let any =
                         MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
-                    let first =
-                        |h: &[(Entity, bevy::picking::mesh_picking::ray_cast::RayMeshHit)]| {
-                            h.first().map(|(e, hit)| (*e, hit.distance))
-                        };
-                    (
-                        first(ours.cast_ray(ray, &settings)),
-                        first(bevy.cast_ray(ray, &settings)),
-                    )
+                    bevy.cast_ray(ray, &any)
+                        .first()
+                        .map(|(e, h)| (*e, h.distance))
                 })
                 .unwrap();
             rays += 1;
             hits += want.is_some() as usize;
-            let same = |got: Option<(Entity, f32)>| match (got, want) {
-                (None, None) => true,
-                (Some((e, d)), Some((we, wd))) => e == we && (d - wd).abs() <= 1e-4 * wd.max(1.0),
-                _ => false,
-            };
-            if !same(ours) {
+            if !same(ours, want) {
                 ours_wrong += 1;
                 eprintln!("frame {frame}: ours {ours:?}, want {want:?}");
             }
-            bevy_wrong += !same(bevys) as usize;
+            bevy_wrong += !same(bevys, want) as usize;
         }
     }
     assert!(hits * 2 > rays, "too few rays hit: {hits} of {rays}");
@@ -432,38 +454,13 @@ fn morph_only_meshes_are_picked_at_their_morphed_vertices() {
         let (posed, unmorphed) = (pose(breath), pose(0.0));
         for _ in 0..80 {
             let t = posed[0].1[rng.below(posed[0].1.len())];
-            let (a, b) = (rng.f32() * 0.5, rng.f32() * 0.5);
-            let target = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
-            let from = target
-                + Vec3::new(
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                )
-                .normalize_or(Vec3::Y)
-                    * 10.0;
-            let Ok(dir) = Dir3::new(target - from) else {
+            let Some(ray) = ray_at(&mut rng, t, 0.5, (-1.0, 1.0), 10.0) else {
                 continue;
             };
-            let ray = Ray3d::new(from, dir);
             let want = brute_force(ray, &posed);
-            let ours = app
-                .world_mut()
-                .run_system_once(move |mut ours: AccelRayCast| {
-                    let any =
-                        MeshRayCastSettings::default().with_visibility(RayCastVisibility::Any);
-                    ours.cast_ray(ray, &any)
-                        .first()
-                        .map(|(e, h)| (*e, h.distance))
-                })
-                .unwrap();
+            let ours = ours(&mut app, ray);
             rays += 1;
             hits += want.is_some() as usize;
-            let same = |got: Option<(Entity, f32)>, want: Option<(Entity, f32)>| match (got, want) {
-                (None, None) => true,
-                (Some((e, d)), Some((we, wd))) => e == we && (d - wd).abs() <= 1e-4 * wd.max(1.0),
-                _ => false,
-            };
             assert!(
                 same(ours, want),
                 "frame {frame}: ours {ours:?}, want {want:?}"
