@@ -106,6 +106,34 @@ fn check_pose(rng: &mut Rng, posed: &PosedMeshBvh, bind: &MeshBvh, tally: &mut T
     }
 }
 
+/// A tube of `rings` rings of `segments` vertices on a chain of `joint_count` joints one
+/// unit apart along `+y`, two joints blended per vertex (weights off one by up to a fifth):
+/// its positions, triangles, joint indices and weights, and the joints' inverse bindposes.
+type TubeRig = (Vec<Vec3>, Vec<u32>, Vec<[u16; 4]>, Vec<[f32; 4]>, Vec<Mat4>);
+
+fn tube_rig(rng: &mut Rng, joint_count: usize, rings: usize, segments: usize) -> TubeRig {
+    let (positions, indices) = tube(rings, segments, (joint_count - 1) as f32);
+    let (mut joint_indices, mut joint_weights) = (Vec::new(), Vec::new());
+    for p in &positions {
+        let u = p.y.clamp(0.0, (joint_count - 1) as f32);
+        let k = (u as usize).min(joint_count - 2);
+        let f = u - k as f32;
+        let scale = rng.range(0.8, 1.2);
+        joint_indices.push([k as u16, k as u16 + 1, 0, 0]);
+        joint_weights.push([(1.0 - f) * scale, f * scale, 0.0, 0.0]);
+    }
+    let inverse_bindposes = (0..joint_count)
+        .map(|k| Mat4::from_translation(Vec3::Y * -(k as f32)))
+        .collect();
+    (
+        positions,
+        indices,
+        joint_indices,
+        joint_weights,
+        inverse_bindposes,
+    )
+}
+
 /// A tube skinned on a chain of joints, two joints blended per vertex (weights off one by
 /// up to a fifth), animated through bends that grow to folds: every pose's rays answer as
 /// brute force over the posed triangles, through refits and the rebuilds the folds cause,
@@ -114,25 +142,14 @@ fn check_pose(rng: &mut Rng, posed: &PosedMeshBvh, bind: &MeshBvh, tally: &mut T
 fn a_bending_tube_answers_as_its_posed_triangles() {
     let mut rng = Rng::new(0x7eb3);
     let (joint_count, seg) = (8usize, 1.0f32);
-    let (positions, indices) = tube(36, 20, seg * (joint_count - 1) as f32);
+    let (positions, indices, joint_indices, joint_weights, inverse_bindposes) =
+        tube_rig(&mut rng, joint_count, 36, 20);
     let n = positions.len();
-    let (mut joint_indices, mut joint_weights) = (Vec::new(), Vec::new());
-    for p in &positions {
-        let u = (p.y / seg).clamp(0.0, (joint_count - 1) as f32);
-        let k = (u as usize).min(joint_count - 2);
-        let f = u - k as f32;
-        let scale = rng.range(0.8, 1.2);
-        joint_indices.push([k as u16, k as u16 + 1, 0, 0]);
-        joint_weights.push([(1.0 - f) * scale, f * scale, 0.0, 0.0]);
-    }
     let vertices = SkinnedVertices {
         positions: &positions,
         joint_indices: &joint_indices,
         joint_weights: &joint_weights,
     };
-    let inverse_bindposes: Vec<Mat4> = (0..joint_count)
-        .map(|k| Mat4::from_translation(Vec3::Y * -(k as f32) * seg))
-        .collect();
     let axes: Vec<Vec3> = (0..joint_count).map(|_| rng.unit_vector().into()).collect();
     let bind = MeshBvh::new(&positions, &indices).unwrap();
     let mut posed = PosedMeshBvh::new(Arc::from(indices.as_slice()), positions.clone()).unwrap();
@@ -333,17 +350,9 @@ fn segments_answer_as_the_posed_triangles() {
     use spatial_accel::mesh::{MorphTargets, SkinSegments, skin_positions};
     let mut rng = Rng::new(0x5e9);
     let (joint_count, seg) = (6usize, 1.0f32);
-    let (positions, indices) = tube(30, 16, seg * (joint_count - 1) as f32);
+    let (positions, indices, joint_indices, joint_weights, inverse_bindposes) =
+        tube_rig(&mut rng, joint_count, 30, 16);
     let n = positions.len();
-    let (mut joint_indices, mut joint_weights) = (Vec::new(), Vec::new());
-    for p in &positions {
-        let u = (p.y / seg).clamp(0.0, (joint_count - 1) as f32);
-        let k = (u as usize).min(joint_count - 2);
-        let f = u - k as f32;
-        let scale = rng.range(0.8, 1.2);
-        joint_indices.push([k as u16, k as u16 + 1, 0, 0]);
-        joint_weights.push([(1.0 - f) * scale, f * scale, 0.0, 0.0]);
-    }
     let vertices = SkinnedVertices {
         positions: &positions,
         joint_indices: &joint_indices,
@@ -360,9 +369,6 @@ fn segments_answer_as_the_posed_triangles() {
         .collect();
     let segments = SkinSegments::new(&vertices, &displacements, 2, &indices).unwrap();
     assert!(segments.segment_count() >= joint_count - 2);
-    let inverse_bindposes: Vec<Mat4> = (0..joint_count)
-        .map(|k| Mat4::from_translation(Vec3::Y * -(k as f32) * seg))
-        .collect();
     let (mut globals, mut joints, mut posed, mut scratch) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut rays, mut hits) = (0, 0);
