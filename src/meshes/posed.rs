@@ -279,6 +279,8 @@ pub(crate) struct PosedState {
     pub(crate) refits: usize,
     /// A segment's posed vertices, between rays.
     pub(crate) scratch: Vec<Vec3>,
+    /// The joints' global matrices of the pose being read, between reads.
+    globals: Vec<Mat4>,
 }
 
 /// The posed trees of skinned and morphed entities behind
@@ -401,26 +403,27 @@ impl PosedState {
         let skinned = matches!(posing, Posing::Skin(_));
         let shape = self.shape(mesh, skinned, inputs.meshes)?;
         // Bevy's skin extraction: a joint without a transform or a bindpose is the identity.
-        let (globals, bindposes): (Vec<Mat4>, &[Mat4]) = match posing {
+        // The joints' globals go through a buffer kept between reads: the first ray of a
+        // system run reads every posed entity.
+        let mut globals = core::mem::take(&mut self.globals);
+        globals.clear();
+        let bindposes: &[Mat4] = match posing {
             Posing::Skin(skin) => {
                 let bindposes = inputs
                     .bindposes
                     .and_then(|assets| assets.get(&skin.inverse_bindposes))
                     .ok_or("has no inverse bindposes asset")?;
-                let globals = skin
-                    .joints
-                    .iter()
-                    .map(|&joint| {
-                        inputs
-                            .joints
-                            .get(joint)
-                            .map_or(Mat4::IDENTITY, |g| Mat4::from(g.affine()))
-                    })
-                    .collect();
-                (globals, bindposes)
+                globals.extend(skin.joints.iter().map(|&joint| {
+                    inputs
+                        .joints
+                        .get(joint)
+                        .map_or(Mat4::IDENTITY, |g| Mat4::from(g.affine()))
+                }));
+                bindposes
             }
             Posing::MorphOnly(transform) => {
-                (vec![Mat4::from(transform.affine())], &[Mat4::IDENTITY])
+                globals.push(Mat4::from(transform.affine()));
+                &[Mat4::IDENTITY]
             }
         };
         // Bevy draws the targets that have no weight (none given, or too few) at zero.
@@ -432,10 +435,7 @@ impl PosedState {
                 .map_or(&[][..], MorphWeights::weights),
             None => &[],
         };
-        let mut weights = vec![0.0; shape.morph_targets];
-        for (w, given) in weights.iter_mut().zip(given) {
-            *w = *given;
-        }
+        let shape_targets = shape.morph_targets;
         let posed = self.entities.entry(entity).or_insert_with(|| PosedEntity {
             shape: shape.clone(),
             joints: Vec::new(),
@@ -450,10 +450,13 @@ impl PosedState {
             posed.shape = shape;
             posed.bvh = None;
         }
-        let mut matrices = core::mem::take(&mut posed.joints);
-        joint_matrices(&globals, bindposes, &mut matrices);
-        posed.joints = matrices;
-        posed.morph_weights = weights;
+        joint_matrices(&globals, bindposes, &mut posed.joints);
+        self.globals = globals;
+        posed.morph_weights.clear();
+        posed.morph_weights.resize(shape_targets, 0.0);
+        for (w, given) in posed.morph_weights.iter_mut().zip(given) {
+            *w = *given;
+        }
         posed.read_at = inputs.this_run;
         posed.bound = posed
             .shape
