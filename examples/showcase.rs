@@ -1,11 +1,12 @@
 //! Thousands of moving cubes kept in the trees by `AccelPlugin`. The cube under the pointer is
-//! lit, and a click selects it, through `AccelPickingPlugin` (the trees, then each mesh's
-//! BVH). The camera and the shadow views of the sun and of a point light are culled on the
-//! trees (`AccelCullingPlugin`). The panel (`AccelPanelPlugin`, `F1`) switches every service
-//! and overlay, picks the movers' index and the static tree's builder, and plots each
-//! service's time; it also names what the pointer is over, with its triangle and distance.
-//! `F2` switches the ray-traced preview (`AccelPreviewPlugin`) over the view: the same trees
-//! and mesh BVHs, traced on the CPU.
+//! lit through `AccelPickingPlugin` (the trees, then each mesh's BVH); a click selects it, a
+//! drag selects every cube whose centre its box holds, shift adds, Escape clears
+//! (`AccelSelectionPlugin`); selected cubes turn orange. The camera and the shadow views of the
+//! sun and of a point light are culled on the trees (`AccelCullingPlugin`). The panel
+//! (`AccelPanelPlugin`, `F1`) switches every service and overlay, picks the movers' index and
+//! the static tree's builder, and plots each service's time; it also names what the pointer is
+//! over, with its triangle and distance. `F2` switches the ray-traced preview
+//! (`AccelPreviewPlugin`) over the view: the same trees and mesh BVHs, traced on the CPU.
 //!
 //! Debug overlays (`AccelOverlaysPlugin`), in the panel or by keys:
 //! - `1`: the dynamic index's nodes, by depth; `2`: the static tree's nodes;
@@ -13,17 +14,20 @@
 //! - `4`: the camera's frustum (seen from elsewhere: it frames this view);
 //! - `[` and `]`: the deepest tree level drawn; `I`: the next index choice for the movers.
 //!
-//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` clicks a known cube (a synthetic
-//! press and release at its screen position), saves a frame and exits, failing unless that
-//! cube was selected (the cubes' motion then follows the frame count, not the clock, so runs
-//! can be compared). With `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the
-//! trees', for comparison; `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
+//! `ACCEL_SCREENSHOT=out.png cargo run --example showcase` clicks a known cube, then drags a
+//! box with shift held over part of the grid (synthetic pointer moves and button presses),
+//! saves a frame and exits, failing unless the selection is that cube and exactly the cubes
+//! whose centre Bevy's `Camera::world_to_viewport` puts inside the box (the cubes' motion then
+//! follows the frame count, not the clock, so runs can be compared). With
+//! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison;
+//! `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
+use bevy::camera::NormalizedRenderTarget;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::picking::hover::HoverMap;
-use bevy::picking::pointer::{PointerId, PointerInput};
+use bevy::picking::pointer::{Location, PointerAction, PointerId, PointerInput};
 use bevy::prelude::*;
-use bevy::window::PrimaryWindow;
+use bevy::window::{PrimaryWindow, WindowRef};
 use bevy_accel::prelude::*;
 
 mod support;
@@ -48,17 +52,21 @@ struct Palette {
 #[derive(Component)]
 struct Cube;
 
-/// The cube under the pointer and the one last clicked.
+/// The cube under the pointer.
 #[derive(Resource, Default, PartialEq)]
 struct Highlight {
     hovered: Option<Entity>,
-    selected: Option<Entity>,
 }
 
 /// In screenshot mode, the static cube the synthetic click aims at, and that must end up
 /// selected.
 #[derive(Resource)]
 struct Target(Entity, Vec3);
+
+/// In screenshot mode, the cubes whose centre projected inside the dragged box when it was
+/// released: with the clicked cube, what must end up selected.
+#[derive(Resource, Default)]
+struct ExpectedDrag(Vec<Entity>);
 
 fn main() -> AppExit {
     let mut app = App::new();
@@ -79,18 +87,20 @@ fn main() -> AppExit {
         });
     }
     app.init_resource::<Highlight>()
+        .init_resource::<ExpectedDrag>()
         .add_systems(Startup, setup)
         .add_systems(
             Update,
             (
                 bob,
                 toggle_overlays,
-                (track_hover, paint_highlight).chain(),
-                synthetic_click,
+                (track_hover, paint_highlight)
+                    .chain()
+                    .after(AccelSelectionSystems),
+                synthetic_click_and_drag.before(AccelSelectionSystems),
                 screenshot_and_exit,
             ),
         )
-        .add_observer(select_on_click)
         .run()
 }
 
@@ -226,32 +236,18 @@ fn track_hover(
     }
 }
 
-fn select_on_click(
-    click: On<Pointer<Click>>,
-    cubes: Query<(), With<Cube>>,
-    mut highlight: ResMut<Highlight>,
-) {
-    if cubes.contains(click.entity) {
-        info!(
-            "selected {} at distance {:.2}",
-            click.entity, click.hit.depth
-        );
-        highlight.selected = Some(click.entity);
-    }
-}
-
 /// Repaints the cubes whose state changed: selected orange, hovered pale.
 fn paint_highlight(
     highlight: Res<Highlight>,
     mut painted: Local<Highlight>,
     palette: Res<Palette>,
+    newly_selected: Query<Entity, Added<Selected>>,
+    mut deselected: RemovedComponents<Selected>,
+    selected: Query<(), With<Selected>>,
     mut materials: Query<&mut MeshMaterial3d<StandardMaterial>, With<Cube>>,
 ) {
-    if *highlight == *painted {
-        return;
-    }
     let look = |e: Entity| {
-        if highlight.selected == Some(e) {
+        if selected.contains(e) {
             &palette.selected
         } else if highlight.hovered == Some(e) {
             &palette.hovered
@@ -259,58 +255,119 @@ fn paint_highlight(
             &palette.normal
         }
     };
-    for entity in [
-        painted.hovered,
-        painted.selected,
-        highlight.hovered,
-        highlight.selected,
-    ]
-    .into_iter()
-    .flatten()
-    {
+    let hover_changed = *highlight != *painted;
+    let changed = newly_selected.iter().chain(deselected.read()).chain(
+        [painted.hovered, highlight.hovered]
+            .into_iter()
+            .flatten()
+            .filter(|_| hover_changed),
+    );
+    for entity in changed {
         if let Ok(mut m) = materials.get_mut(entity) {
             m.0 = look(entity).clone();
         }
     }
-    *painted = Highlight {
-        hovered: highlight.hovered,
-        selected: highlight.selected,
-    };
+    painted.hovered = highlight.hovered;
 }
 
-/// Screenshot mode: moves the mouse pointer over the target cube, then presses and releases
-/// its primary button there, as bevy_picking's input from a window would.
-fn synthetic_click(
+/// Screenshot mode: moves the mouse pointer over the target cube and clicks it (frames 10 to
+/// 14), then holds shift and drags a box over part of the grid (18 to 25), as a window's input
+/// would; at the release, notes the cubes whose centre projects inside the box.
+// A system's parameters are its dependencies; bundling them would only hide them.
+#[allow(clippy::too_many_arguments)]
+fn synthetic_click_and_drag(
     mut frame: Local<u32>,
     window: Single<Entity, With<PrimaryWindow>>,
     camera: Single<(&Camera, &GlobalTransform)>,
     target: Option<Res<Target>>,
+    cubes: Query<(Entity, &GlobalTransform), With<Cube>>,
+    mut expected: ResMut<ExpectedDrag>,
+    mut buttons: ResMut<ButtonInput<MouseButton>>,
+    mut keys: ResMut<ButtonInput<KeyCode>>,
     mut input: MessageWriter<PointerInput>,
 ) {
     if !screenshot::screenshot_mode() {
         return;
     }
     *frame += 1;
-    let Some(target) = target else { return };
-    screenshot::synthetic_click(*frame, *window, *camera, target.1, &mut input);
+    let (Some(target), Some(window_ref)) = (target, WindowRef::Primary.normalize(Some(*window)))
+    else {
+        return;
+    };
+    let (camera, camera_tf) = *camera;
+    let screen = |p: Vec3| camera.world_to_viewport(camera_tf, p).ok();
+    // The box's corners fall between the cubes (1.5 apart), away from the clicked one.
+    let (Some(at_target), Some(start), Some(end)) = (
+        screen(target.1),
+        screen(Vec3::new(-9.75, 0.0, -5.25)),
+        screen(Vec3::new(-2.25, 0.0, 3.75)),
+    ) else {
+        return;
+    };
+    let mut move_to = |position: Vec2| {
+        let location = Location {
+            target: NormalizedRenderTarget::Window(window_ref),
+            position,
+        };
+        let action = PointerAction::Move { delta: Vec2::ZERO };
+        input.write(PointerInput::new(PointerId::Mouse, location, action));
+    };
+    match *frame {
+        10 => move_to(at_target),
+        12 | 20 => buttons.press(MouseButton::Left),
+        14 => buttons.release(MouseButton::Left),
+        18 => {
+            keys.press(KeyCode::ShiftLeft);
+            move_to(start);
+        }
+        21 => move_to((start + end) / 2.0),
+        22 => move_to(end),
+        24 => {
+            buttons.release(MouseButton::Left);
+            // The selection runs after this system, on the trees as the last frame left
+            // them: the transforms read here.
+            let rect = Rect::from_corners(start, end);
+            expected.0 = cubes
+                .iter()
+                .filter(|(_, at)| screen(at.translation()).is_some_and(|p| rect.contains(p)))
+                .map(|(e, _)| e)
+                .collect();
+        }
+        25 => keys.release(KeyCode::ShiftLeft),
+        _ => {}
+    }
 }
 
-/// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the clicked cube is
-/// the one selected.
+/// Screenshot mode: saves frame 30 and exits at frame 40, failing unless the selection is the
+/// clicked cube and the cubes the drag's box held.
 fn screenshot_and_exit(
     mut commands: Commands,
     mut frame: Local<u32>,
-    highlight: Res<Highlight>,
+    selected: Query<Entity, With<Selected>>,
     target: Option<Res<Target>>,
+    expected: Res<ExpectedDrag>,
     mut exit: MessageWriter<AppExit>,
 ) {
     if !screenshot::check_due(&mut commands, &mut frame) {
         return;
     }
-    let expected = target.map(|t| t.0);
+    let mut want: Vec<Entity> = expected
+        .0
+        .iter()
+        .copied()
+        .chain(target.map(|t| t.0))
+        .collect();
+    let mut got: Vec<Entity> = selected.iter().collect();
+    want.sort_unstable();
+    want.dedup();
+    got.sort_unstable();
     screenshot::exit_with(
         &mut exit,
-        highlight.selected.is_some() && highlight.selected == expected,
-        format!("selected {:?}, expected {expected:?}", highlight.selected),
+        expected.0.len() > 10 && got == want,
+        format!(
+            "selected {} cubes; expected the clicked one and the {} the box held",
+            got.len(),
+            expected.0.len()
+        ),
     );
 }
