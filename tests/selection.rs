@@ -437,7 +437,6 @@ fn the_rules_keep_hidden_unpickable_and_other_layer_entities_out() {
     let marked = spawn(&mut app, -2.0, &|e| {
         e.insert(Pickable::default());
     });
-    let _ = (hidden, ignored, layered);
     let (camera, _) = spawn_camera(&mut app, &mut rng, false);
     app.world_mut()
         .entity_mut(camera)
@@ -501,4 +500,28 @@ fn the_rules_keep_hidden_unpickable_and_other_layer_entities_out() {
         })
         .unwrap();
     assert_eq!(off, (0, SelectionError::NotACamera(plain)));
+    // Without the visibility rule, the hidden entity is selected; the others' own rules
+    // still hold (some entity has a `Pickable`, some a `RenderLayers`: each is read).
+    app.world_mut().insert_resource(AccelSelectionSettings {
+        visibility: RayCastVisibility::Any,
+        ..default()
+    });
+    let mut want = [plain, hidden, marked];
+    want.sort();
+    assert_eq!(select(&mut app, SelectionMode::Center), want);
+    // No `Pickable` and no `RenderLayers` left anywhere: every entity passes unread.
+    for entity in [ignored, marked, layered] {
+        app.world_mut()
+            .entity_mut(entity)
+            .remove::<(Pickable, RenderLayers)>();
+    }
+    app.world_mut().entity_mut(camera).remove::<RenderLayers>();
+    let mut all = [plain, hidden, ignored, layered, marked];
+    all.sort();
+    assert_eq!(select(&mut app, SelectionMode::Center), all);
+    // A camera that does not see layer 0 then selects nothing.
+    app.world_mut()
+        .entity_mut(camera)
+        .insert(RenderLayers::layer(3));
+    assert!(select(&mut app, SelectionMode::Center).is_empty());
 }

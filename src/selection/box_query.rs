@@ -6,6 +6,7 @@
 use crate::trees::{AccelTrees, LocalFrame, placement};
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::prelude::*;
+use spatial_accel::sort::sort_keys;
 use spatial_accel::{Aabb, Containment, Frustum, SelectionMode, SpatialQuery, Sphere};
 use std::borrow::Cow;
 
@@ -35,30 +36,45 @@ pub(crate) fn rect_frustum(
 
 /// Calls `select(slot, entity)` for each tracked entity whose world box the `mode` does not
 /// rule out in `frustum`, with `Some(verdict)` where the box decides and `None` where the
-/// mesh must (see [`SelectionMode::select_by_aabb`]).
+/// mesh must (see [`SelectionMode::select_by_aabb`]), in the order of the slots. `walked` is
+/// scratch.
+///
+/// The walk only gathers slots; they are sorted before anything else is read. A tree's leaves
+/// come in no order of memory, so reading each slot's record (and, in `select`, its entity's
+/// components) as the walk reaches it is a cache miss per candidate. In slot order the records
+/// are read in sequence, and slots follow the order entities were spawned in, which is how
+/// Bevy's tables hold their rows.
 pub(crate) fn candidates_in_frustum(
     trees: &AccelTrees,
     frustum: &Frustum,
     mode: SelectionMode,
+    walked: &mut Vec<u64>,
     mut select: impl FnMut(u32, Entity, Option<bool>),
 ) {
+    walked.clear();
     trees
         .query()
         .for_each_in_frustum(frustum, |slot, containment| {
-            let Some(entity) = trees.entity(slot) else {
-                return;
-            };
-            // A tree box wholly inside holds the exact box, and the mesh inside it (Bevy's
-            // `Aabb` bounds its mesh): every mode selects it without a test.
-            let verdict = if containment == Containment::Inside {
-                Some(true)
-            } else {
-                mode.select_by_aabb(frustum, &trees.world_bounds(slot))
-            };
-            if verdict != Some(false) {
-                select(slot, entity, verdict);
-            }
+            // The slot, and in bit 0 whether its tree box is wholly inside.
+            walked.push(u64::from(slot) << 1 | u64::from(containment == Containment::Inside));
         });
+    sort_keys(walked);
+    for &key in walked.iter() {
+        let slot = (key >> 1) as u32;
+        let Some(entity) = trees.entity(slot) else {
+            continue;
+        };
+        // A tree box wholly inside holds the exact box, and the mesh inside it (Bevy's `Aabb`
+        // bounds its mesh): every mode selects it without a test.
+        let verdict = if key & 1 == 1 {
+            Some(true)
+        } else {
+            mode.select_by_aabb(frustum, &trees.world_bounds(slot))
+        };
+        if verdict != Some(false) {
+            select(slot, entity, verdict);
+        }
+    }
 }
 
 /// Calls `select(slot, entity)` for each tracked entity the `mode` selects in `sphere`, judged

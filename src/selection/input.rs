@@ -178,12 +178,16 @@ fn apply(
             }
         }
     }
-    let mut added = 0;
-    for &entity in found {
-        if !selected.contains(entity) {
-            commands.entity(entity).try_insert(Selected);
-            added += 1;
-        }
+    // One batch: Bevy moves each archetype's entities together, where one command per
+    // entity would look every move up again.
+    let batch: Vec<(Entity, Selected)> = found
+        .iter()
+        .filter(|&&entity| !selected.contains(entity))
+        .map(|&entity| (entity, Selected))
+        .collect();
+    let added = batch.len();
+    if added > 0 {
+        commands.try_insert_batch(batch);
     }
     if added + removed > 0 {
         commands.trigger(SelectionChanged {

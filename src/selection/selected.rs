@@ -5,7 +5,12 @@ use bevy::prelude::*;
 /// Marks a selected entity. The selection plugin inserts and removes it; code may too.
 /// Observe its lifecycle to react to each entity: `On<Add, Selected>` when an entity is
 /// selected, `On<Remove, Selected>` when it is deselected (or despawned while selected).
+///
+/// Stored in a sparse set, as Bevy advises for a marker added and removed often: a drag
+/// selects or deselects tens of thousands of entities at once, and in a table each insert or
+/// removal would move the entity's every component to another table.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+#[component(storage = "SparseSet")]
 #[reflect(Component, Default, Debug)]
 pub struct Selected;
 

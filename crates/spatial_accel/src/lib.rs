@@ -51,6 +51,7 @@ pub mod octree;
 pub mod prefetch;
 pub mod preview;
 pub mod query;
+pub mod sort;
 
 pub use bvh::{BuildConfig, Bvh, SahCosts, SplitStrategy};
 pub use dynamic::{DynamicBvh, DynamicBvhConfig, LeafHandle};

@@ -14,7 +14,7 @@
 //! Queries come from [`crate::SpatialQuery`], through the traversals shared with the dynamic
 //! tree ([`crate::query::walks`]).
 
-mod build;
+pub(crate) mod build;
 pub mod config;
 mod node;
 mod sphere_tree;

@@ -5,7 +5,7 @@
 //! Each is a stack traversal that prunes by the query's test against a node's volume; the ray
 //! walk enters the nearest child first and prunes by the best distance found so far.
 
-use super::{BoundingTree, NodeVolume, RayHit, Subtree, TraversalStack};
+use super::{BoundingTree, NodeVolume, RayHit, TraversalStack};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::cmp::Ordering;
 use core::ops::ControlFlow;
@@ -139,14 +139,46 @@ where
         prims.iter().for_each(|&p| visit(p));
         return;
     }
-    visit_primitives_where(
-        &Subtree::new(tree, node),
-        |_| true,
-        |p| {
-            visit(p);
-            ControlFlow::Continue(())
-        },
-    );
+    visit_scattered_subtree(tree, node, visit);
+}
+
+/// Nodes a whole-subtree walk has asked for ahead of reading them.
+const SUBTREE_LOOKAHEAD: usize = 32;
+
+/// [`visit_subtree`] where the nodes lie scattered in memory (a dynamic tree after motion):
+/// every node is read, and a depth-first walk reads the child it just pushed at once, so
+/// half its reads wait on a miss. Nothing orders a whole subtree's primitives, so the walk
+/// reads nodes first in, first out from a ring of [`SUBTREE_LOOKAHEAD`], each prefetched as
+/// it enters: a node is read that many nodes after its load began, and the misses overlap.
+/// Nodes the ring has no room for wait on a stack until it does.
+fn visit_scattered_subtree<T, F>(tree: &T, node: u32, mut visit: F)
+where
+    T: BoundingTree + ?Sized,
+    F: FnMut(u32),
+{
+    let mut ring = [0u32; SUBTREE_LOOKAHEAD];
+    let (mut head, mut len) = (0usize, 1usize);
+    ring[0] = node;
+    let mut waiting: TraversalStack<u32> = TraversalStack::new();
+    while len > 0 {
+        let node = ring[head];
+        head = (head + 1) % SUBTREE_LOOKAHEAD;
+        len -= 1;
+        let children = tree.node_children(node);
+        if children.is_none() || T::INTERIOR_PRIMITIVES {
+            tree.node_primitives(node).iter().for_each(|&p| visit(p));
+        }
+        for child in children.into_iter().flatten() {
+            waiting.push(child);
+        }
+        while len < SUBTREE_LOOKAHEAD
+            && let Some(next) = waiting.pop()
+        {
+            tree.prefetch_node(next);
+            ring[(head + len) % SUBTREE_LOOKAHEAD] = next;
+            len += 1;
+        }
+    }
 }
 
 /// Overlap with a box; see [`super::SpatialQuery::for_each_overlapping_aabb`].

@@ -15,7 +15,7 @@ mod binned;
 mod binned_avx2;
 mod exhaustive;
 mod lbvh;
-mod morton;
+pub(crate) mod morton;
 mod object;
 #[cfg(feature = "rayon")]
 mod parallel;

@@ -166,7 +166,7 @@ pub(super) fn sorted_keys(bounds: &[Aabb]) -> (KeyLayout, Vec<u64>) {
 /// sort. The top pass scatters to only 64 places; each bucket (a sixty-fourth of the
 /// keys) is then sorted inside L2. An LSD pass whose digit is the same for every key of its
 /// bucket is skipped.
-pub(super) fn radix_sort(keys: &mut Vec<u64>, bits: Range<u32>) {
+pub(crate) fn radix_sort(keys: &mut Vec<u64>, bits: Range<u32>) {
     let n = keys.len();
     let width = bits.end.saturating_sub(bits.start);
     if n < 2 || width == 0 {

@@ -7,6 +7,8 @@
 //! queries. The brute force's centre and enclosed verdicts are compared with ours: a unit one
 //! selects and the other does not is a failure, unless it lies within rounding of an edge.
 
+mod drag;
+
 use super::{headless_app, point};
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
@@ -46,12 +48,17 @@ fn half_side(n: usize) -> f32 {
 /// The app: `n` units on the field and a camera above it that sees all of it.
 fn scene(n: usize) -> (App, Entity, Mat4) {
     let mut app = headless_app();
-    app.add_plugins((AccelPickingPlugin, AccelSelectionPlugin))
-        // As the brute force: no renderer decides visibility here.
-        .insert_resource(AccelSelectionSettings {
-            visibility: RayCastVisibility::Any,
-            ..default()
-        });
+    // The input plugin for the drags' mouse button (`drag`).
+    app.add_plugins((
+        AccelPickingPlugin,
+        AccelSelectionPlugin,
+        bevy::input::InputPlugin,
+    ))
+    // As the brute force: no renderer decides visibility here.
+    .insert_resource(AccelSelectionSettings {
+        visibility: RayCastVisibility::Any,
+        ..default()
+    });
     app.finish();
     let cube = app
         .world_mut()
@@ -214,12 +221,20 @@ fn count(n: usize) -> String {
 
 pub fn run(quick: bool) -> Report {
     let sizes = if quick { QUICK } else { FULL };
-    let mut progress = Progress::new("selection", sizes.units.len() * (1 + sizes.shares.len()));
+    let mut progress = Progress::new("selection", sizes.units.len() * (2 + sizes.shares.len()));
     let mut points: Vec<Point> = Vec::new();
     let mut markdown = vec![
         "| units | inside | mode | selected | brute force | accel | speed-up | accel per selected |"
             .to_string(),
         "|---:|---:|---|---:|---:|---:|---:|---:|".to_string(),
+    ];
+    let mut drag_rows = vec![
+        String::new(),
+        "Drags (the frame, `App::update` whole; in brackets over the idle frame):".to_string(),
+        String::new(),
+        "| units | inside | selected | idle frame | press or move (median) | release, empty selection | release, replacing |"
+            .to_string(),
+        "|---:|---:|---:|---:|---:|---:|---:|".to_string(),
     ];
     let mut differences = 0u64;
     let mut checked = 0u64;
@@ -301,7 +316,10 @@ pub fn run(quick: bool) -> Report {
                 ));
             }
         }
+        progress.step(&format!("{n} units: drags"));
+        drag::run(app, n, sizes.shares, &mut drag_rows, &mut points);
     }
+    markdown.extend(drag_rows);
     Report {
         suite: "selection".into(),
         quick,
