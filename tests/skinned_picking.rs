@@ -7,7 +7,7 @@
 use accel_testkit::Rng;
 use accel_testkit::skinned::{Detail, JOINT_COUNT, JOINT_PARENTS, SkinnedCharacter, character};
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::primitives::Aabb;
+use bevy::camera::primitives::{Aabb, MeshAabb};
 use bevy::ecs::system::RunSystemOnce;
 use bevy::mesh::morph::{MeshMorphWeights, MorphAttributes};
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
@@ -273,7 +273,7 @@ fn same(got: Option<(Entity, f32)>, want: Option<(Entity, f32)>) -> bool {
 
 #[test]
 fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
-    check_posed_picking(false);
+    check_posed_picking(false, None);
 }
 
 /// With Bevy's `DynamicSkinnedMeshBounds`, characters whose weights are glTF's are found by
@@ -281,10 +281,18 @@ fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
 /// summing to one) keep the plugin's own broad phase. Both answer as the brute force.
 #[test]
 fn characters_with_bevys_posed_bounds_are_found_by_the_trees() {
-    check_posed_picking(true);
+    check_posed_picking(true, None);
 }
 
-fn check_posed_picking(dynamic_bounds: bool) {
+/// Characters that lose Bevy's `DynamicSkinnedMeshBounds` mid-run (their `Aabb` back to the
+/// bind pose's) go back to the plugin's own broad phase from the next ray: the list of
+/// entities a ray poses itself is made again.
+#[test]
+fn characters_that_lose_bevys_posed_bounds_keep_being_picked() {
+    check_posed_picking(true, Some(3));
+}
+
+fn check_posed_picking(dynamic_bounds: bool, drop_bounds_at: Option<usize>) {
     let mut app = common::app();
     let c = character(Detail::for_triangles(2_000));
     let mut rng = Rng::new(73);
@@ -311,6 +319,21 @@ fn check_posed_picking(dynamic_bounds: bool) {
                     let local = random_local(&mut rng, rest[k].translation);
                     *app.world_mut().get_mut::<Transform>(joint).unwrap() = local;
                 }
+            }
+        }
+        if drop_bounds_at == Some(frame) {
+            for ch in &chars {
+                let handle = app.world().get::<Mesh3d>(ch.mesh).unwrap().0.clone();
+                let bind_pose = app
+                    .world()
+                    .resource::<Assets<Mesh>>()
+                    .get(&handle)
+                    .and_then(Mesh::compute_aabb)
+                    .unwrap();
+                app.world_mut()
+                    .entity_mut(ch.mesh)
+                    .remove::<bevy::camera::visibility::DynamicSkinnedMeshBounds>()
+                    .insert(bind_pose);
             }
         }
         app.update();

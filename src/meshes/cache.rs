@@ -225,6 +225,9 @@ pub(crate) fn invalidate_changed_meshes(
         .collect();
     for id in stale {
         posed.lock().forget_mesh(id);
+        posed
+            .first_pass_listed
+            .store(false, core::sync::atomic::Ordering::Release);
         if cache.contains(id) {
             cache.invalidate(id);
         }

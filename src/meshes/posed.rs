@@ -24,6 +24,7 @@ use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use core::sync::atomic::AtomicBool;
 use spatial_accel::Aabb;
 use spatial_accel::mesh::{
     MeshHit, MorphTargets, PosedMeshBvh, SkinBounds, SkinSegments, SkinnedVertices, joint_matrices,
@@ -281,6 +282,9 @@ pub(crate) struct PosedState {
     pub(crate) scratch: Vec<Vec3>,
     /// The joints' global matrices of the pose being read, between reads.
     globals: Vec<Mat4>,
+    /// The posed entities a ray poses and tests before the walk, while
+    /// [`AccelPosedMeshes::first_pass_listed`] holds.
+    pub(crate) first_pass: Vec<Entity>,
 }
 
 /// The posed trees of skinned and morphed entities behind
@@ -290,6 +294,10 @@ pub(crate) struct PosedState {
 #[derive(Resource, Default)]
 pub struct AccelPosedMeshes {
     pub(crate) state: Mutex<PosedState>,
+    /// [`PosedState::first_pass`] is up to date: cleared when a posed entity's skin, morph
+    /// weights, mesh or bounds come or go, or a mesh asset changes. Outside the lock, for the
+    /// observers that clear it on every mesh entity's spawn.
+    pub(crate) first_pass_listed: AtomicBool,
 }
 
 impl AccelPosedMeshes {

@@ -10,6 +10,7 @@
 //! candidate's mesh by tree slot, so the ECS is read only for the meshes a ray hits.
 
 mod backend;
+mod posed_pass;
 mod ray_cast;
 #[cfg(feature = "sprite_picking")]
 mod sprites;
@@ -161,7 +162,9 @@ impl Plugin for AccelPickingPlugin {
                     .run_if(resource_exists::<Messages<PointerHits>>),
             );
         meshes::add_slot_mesh_observers(app);
-        app.add_observer(meshes::forget_unposed);
+        app.add_observer(meshes::forget_unposed)
+            .add_observer(posed_pass::first_pass_changed)
+            .add_observer(posed_pass::first_pass_lost);
     }
 
     fn finish(&self, app: &mut App) {

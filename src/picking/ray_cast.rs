@@ -1,19 +1,17 @@
 //! [`AccelRayCast`]: Bevy's `MeshRayCast`, answered through the trees and per-mesh BVHs.
 
+use super::posed_pass::{SkinnedTargets, posed_hit};
 use crate::meshes::{
-    AccelMeshCache, AccelPosedMeshes, CachedMesh, MeshShape, PosedState, Posing, SkinInputs,
-    SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
+    AccelMeshCache, CachedMesh, MeshShape, Posing, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
 use crate::trees::placement;
 use crate::{AccelTrees, LocalFrame};
 use bevy::camera::primitives::Aabb as BevyAabb;
-use bevy::camera::visibility::{DynamicSkinnedMeshBounds, InheritedVisibility, ViewVisibility};
-use bevy::ecs::entity::{Entities, EntityHashSet};
+use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
+use bevy::ecs::entity::Entities;
+use bevy::ecs::system::SystemParam;
 use bevy::ecs::system::lifetimeless::Read;
-use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::math::{Ray3d, Vec3A};
-use bevy::mesh::morph::{MeshMorphWeights, MorphWeights};
-use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh2d, Mesh3d};
 use bevy::picking::mesh_picking::ray_cast::{
     MeshRayCastSettings, RayCastBackfaces, RayCastVisibility, RayMeshHit, SimplifiedMesh,
@@ -56,42 +54,13 @@ type BoundsTargetData = (
     Option<Read<ViewVisibility>>,
 );
 
-/// What a posed candidate is read for (see [`crate::meshes::AccelPosedMeshes`]).
-type PosedTargetData = (
-    Entity,
-    Option<Read<SkinnedMesh>>,
-    Option<Read<MeshMorphWeights>>,
-    Read<Mesh3d>,
-    Read<GlobalTransform>,
-    Read<InheritedVisibility>,
-    Read<ViewVisibility>,
-    Has<RayCastBackfaces>,
-    Has<DynamicSkinnedMeshBounds>,
-);
-
-/// The entities Bevy poses before drawing: skinned, or with morph weights.
-type PosedFilter = Or<(With<SkinnedMesh>, With<MeshMorphWeights>)>;
-
-/// Skinned and morphed meshes, tested at their posed vertices beside the trees' candidates.
-#[derive(SystemParam)]
-pub(crate) struct SkinnedTargets<'w, 's> {
-    posed: Option<Res<'w, AccelPosedMeshes>>,
-    targets: Query<'w, 's, PosedTargetData, PosedFilter>,
-    joints: Query<'w, 's, &'static GlobalTransform>,
-    morph_weights: Query<'w, 's, &'static MorphWeights>,
-    bindposes: Option<Res<'w, Assets<SkinnedMeshInverseBindposes>>>,
-    ticks: SystemChangeTick,
-    /// The posed entities this ray's first pass tested (the walk skips them).
-    tested: Local<'s, EntityHashSet>,
-}
-
 /// A hit found during traversal, before the blocking cut and the sort.
-struct PendingHit {
-    entity: Entity,
+pub(super) struct PendingHit {
+    pub(super) entity: Entity,
     /// Entry distance into the entity's box (its oriented box for mesh hits): orders
     /// equal-distance hits as Bevy's candidate list, sorted by that distance, does.
-    entry: f32,
-    hit: RayMeshHit,
+    pub(super) entry: f32,
+    pub(super) hit: RayMeshHit,
 }
 
 /// What a ray is tested against.
@@ -292,55 +261,17 @@ impl<'w, 's> AccelRayCast<'w, 's> {
         };
         // Skinned meshes first, at their posed vertices (they are skipped in the walk below):
         // their nearest blocking hit then bounds the walk.
+        let mut tested = core::mem::take(&mut *skinned.tested);
         let mut posed = match (target, &skinned.posed) {
             (Target::Meshes, Some(posed)) if !skinned.targets.is_empty() => Some(posed.lock()),
             _ => None,
         };
         let mut world_ray = world_ray;
         if let Some(state) = posed.as_deref_mut() {
-            let inputs = SkinInputs {
-                meshes,
-                bindposes: skinned.bindposes.as_deref(),
-                joints: &skinned.joints,
-                morph_weights: &skinned.morph_weights,
-                this_run: skinned.ticks.this_run(),
-            };
-            skinned.tested.clear();
-            for (entity, skin, morph, mesh3d, transform, inherited, view, two_sided, bevy_bounds) in
-                &skinned.targets
-            {
-                // Left to the walk: the trees hold Bevy's posed box of such an entity.
-                if bevy_bounds && skin.is_some() && state.bevy_bounds_hold(mesh3d.id(), meshes) {
-                    continue;
-                }
-                let posing = skin.map_or(Posing::MorphOnly(transform), Posing::Skin);
-                // One that cannot be posed is left to the walk, which tests it unposed.
-                if !state.update_pose(entity, mesh3d.id(), posing, morph, &inputs) {
-                    continue;
-                }
-                skinned.tested.insert(entity);
-                if !counts(entity, Some(inherited), Some(view)) {
-                    continue;
-                }
-                let Some((entry, hit)) = posed_hit(state, entity, &world_ray, two_sided) else {
-                    continue;
-                };
-                let distance = hit.distance;
-                hits.push(PendingHit { entity, entry, hit });
-                if (settings.early_exit_test)(entity) && distance < world_ray.t_max {
-                    world_ray.t_max = distance;
-                }
-            }
+            skinned.first_pass(state, meshes, &mut world_ray, settings, (hits, &mut tested));
         }
         let mut posed = posed.as_deref_mut();
-        let tested = &skinned.tested;
-        let skin_inputs = SkinInputs {
-            meshes,
-            bindposes: skinned.bindposes.as_deref(),
-            joints: &skinned.joints,
-            morph_weights: &skinned.morph_weights,
-            this_run: skinned.ticks.this_run(),
-        };
+        let skin_inputs = skinned.inputs(meshes);
         let skinned_cut = world_ray.t_max;
         let blocking = closest_hit_announcing(trees.query(), &world_ray, announce, |slot, r| {
             let (entity, entry, hit) = match target {
@@ -436,6 +367,8 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             (settings.early_exit_test)(entity).then_some(distance)
         });
         let cut = blocking.map_or(skinned_cut, |b| b.t.min(skinned_cut));
+        drop(posed);
+        *skinned.tested = tested;
         hits.retain(|h| h.hit.distance <= cut);
         hits.sort_by(|a, b| {
             a.hit
@@ -446,54 +379,8 @@ impl<'w, 's> AccelRayCast<'w, 's> {
     }
 }
 
-/// The nearest hit on a posed entity's triangles, with the entry distance into its posed
-/// box; only the mesh's segments the ray reaches are skinned. In world space:
-/// the normal is the posed triangle's unit geometric normal (the vertex normals are the
-/// bind pose's), the triangle its posed corners.
-fn posed_hit(
-    state: &mut PosedState,
-    entity: Entity,
-    world: &Ray,
-    two_sided: bool,
-) -> Option<(f32, RayMeshHit)> {
-    let PosedState {
-        entities,
-        refits,
-        scratch,
-        ..
-    } = state;
-    let posed = entities.get(&entity)?;
-    let entry = world.intersect_aabb(&posed.bound)?;
-    let backfaces = if two_sided {
-        Backfaces::Include
-    } else {
-        Backfaces::Cull
-    };
-    *refits += 1;
-    let (hit, corners) = posed.cast_ray(world, backfaces, scratch)?;
-    let shape = &posed.shape;
-    let [ia, ib, ic] = shape.triangle_indices(hit.triangle).map(|i| i as usize);
-    let [w, u, v] = hit.barycentrics;
-    let uv = shape
-        .uvs
-        .as_ref()
-        .and_then(|uv| Some(*uv.get(ia)? * w + *uv.get(ib)? * u + *uv.get(ic)? * v));
-    Some((
-        entry,
-        RayMeshHit {
-            point: world.at(hit.t).into(),
-            normal: Vec3::from(hit.geometric_normal),
-            barycentric_coords: Vec3::new(w, u, v),
-            distance: hit.t,
-            triangle: Some(corners),
-            uv,
-            triangle_index: Some(hit.triangle as usize),
-        },
-    ))
-}
-
 /// Whether an entity passes the visibility setting (missing components count as visible).
-fn visible(
+pub(super) fn visible(
     mode: RayCastVisibility,
     inherited: Option<&InheritedVisibility>,
     view: Option<&ViewVisibility>,
