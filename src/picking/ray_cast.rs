@@ -367,7 +367,6 @@ impl<'w, 's> AccelRayCast<'w, 's> {
             (settings.early_exit_test)(entity).then_some(distance)
         });
         let cut = blocking.map_or(skinned_cut, |b| b.t.min(skinned_cut));
-        drop(posed);
         *skinned.tested = tested;
         hits.retain(|h| h.hit.distance <= cut);
         hits.sort_by(|a, b| {

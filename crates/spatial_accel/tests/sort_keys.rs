@@ -63,5 +63,5 @@ fn sorts_the_inputs_radix_sorts_get_wrong() {
             .collect(),
         "entity-like: index and a generation of 0 or 1",
     );
-    check(vec![u64::MAX, 0, u64::MAX - 1, 1].repeat(100), "extremes");
+    check([u64::MAX, 0, u64::MAX - 1, 1].repeat(100), "extremes");
 }
