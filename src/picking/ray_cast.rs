@@ -200,7 +200,7 @@ impl<'w, 's> AccelRayCast<'w, 's> {
     }
 
     /// Skinned entities' posed trees built or refit since the last call (see
-    /// [`AccelPosedMeshes`]).
+    /// [`AccelPosedMeshes`](crate::meshes::AccelPosedMeshes)).
     pub fn take_posed_refits(&self) -> usize {
         self.skinned.posed.as_ref().map_or(0, |p| p.take_refits())
     }
