@@ -124,22 +124,28 @@ impl DragApp {
     }
 }
 
-/// Times the drags over `n` units with a box holding about `share` of them; markdown rows and
-/// plot points.
+/// Times the drags over the app's scene (`units` names it) with boxes holding about each
+/// of `shares` of the units; markdown rows and plot points.
 pub(super) fn run(
     app: App,
-    n: usize,
+    units: &str,
     shares: &[f32],
     rows: &mut Vec<String>,
     points: &mut Vec<Point>,
 ) {
     let mut app = DragApp::new(app);
     for &share in shares {
-        drags(&mut app, n, share, rows, points);
+        drags(&mut app, units, share, rows, points);
     }
 }
 
-fn drags(app: &mut DragApp, n: usize, share: f32, rows: &mut Vec<String>, points: &mut Vec<Point>) {
+fn drags(
+    app: &mut DragApp,
+    units: &str,
+    share: f32,
+    rows: &mut Vec<String>,
+    points: &mut Vec<Point>,
+) {
     let idle: Vec<f64> = (0..15).map(|_| app.frame()).collect();
     let idle = median(idle);
     // The rectangle of the query suite (a centred square of `share` of the screen), in
@@ -165,7 +171,7 @@ fn drags(app: &mut DragApp, n: usize, share: f32, rows: &mut Vec<String>, points
     let moves = median(moves);
     let first = median(first);
     let replace = median(replace);
-    let scene = format!("{} units, {}% inside, drag", super::count(n), share * 100.0);
+    let scene = format!("{units} units, {}% inside, drag", share * 100.0);
     for (name, seconds) in [
         ("idle frame", idle),
         ("press or move frame", moves),
@@ -182,7 +188,7 @@ fn drags(app: &mut DragApp, n: usize, share: f32, rows: &mut Vec<String>, points
     }
     rows.push(format!(
         "| {} | {}% | {} | {} | {} (+{}) | {} (+{}) | {} (+{}) |",
-        super::count(n),
+        units,
         share * 100.0,
         selected,
         super::ms(idle),

@@ -24,18 +24,22 @@ use std::time::{Duration, Instant};
 /// The unit counts, the shares inside the rectangle, and the queries timed per row.
 struct Sizes {
     units: &'static [usize],
+    /// Unit counts run again with every unit moving every frame.
+    moving_units: &'static [usize],
     shares: &'static [f32],
     queries: usize,
 }
 
 const FULL: Sizes = Sizes {
     units: &[10_000, 100_000, 1_000_000],
+    moving_units: &[100_000],
     shares: &[0.01, 0.1],
     queries: 15,
 };
 
 const QUICK: Sizes = Sizes {
     units: &[2_000, 20_000],
+    moving_units: &[],
     shares: &[0.1],
     queries: 3,
 };
@@ -45,8 +49,23 @@ fn half_side(n: usize) -> f32 {
     (n as f32).sqrt()
 }
 
-/// The app: `n` units on the field and a camera above it that sees all of it.
-fn scene(n: usize) -> (App, Entity, Mat4) {
+/// A unit's place on the field, which a moving unit circles.
+#[derive(Component)]
+struct Home(Vec3);
+
+/// Every unit a step further round its small circle: each moves every frame, as units
+/// walking about do.
+fn circle_homes(mut frame: Local<u32>, mut units: Query<(&Home, &mut Transform)>) {
+    *frame += 1;
+    units.par_iter_mut().for_each(|(home, mut transform)| {
+        let a = *frame as f32 * 0.1 + home.0.x * 0.37 + home.0.z * 0.61;
+        transform.translation = home.0 + 0.3 * Vec3::new(a.cos(), 0.0, a.sin());
+    });
+}
+
+/// The app: `n` units on the field and a camera above it that sees all of it; with
+/// `moving`, every unit moving every frame.
+fn scene(n: usize, moving: bool) -> (App, Entity, Mat4) {
     let mut app = headless_app();
     // The input plugin for the drags' mouse button (`drag`).
     app.add_plugins((
@@ -73,10 +92,19 @@ fn scene(n: usize) -> (App, Entity, Mat4) {
                 (i % side) as f32 * 2.0 - half,
                 (i / side) as f32 * 2.0 - half,
             );
-            (Transform::from_xyz(x, 0.4, z), aabb, Mesh3d(cube.clone()))
+            let home = Vec3::new(x, 0.4, z);
+            (
+                Transform::from_translation(home),
+                aabb,
+                Mesh3d(cube.clone()),
+                Home(home),
+            )
         })
         .collect();
     app.world_mut().spawn_batch(units);
+    if moving {
+        app.add_systems(Update, circle_homes);
+    }
     // From above and to the south, tilted: the field fills the view.
     let eye = Vec3::new(0.0, half * 2.2, half * 0.8);
     let transform = Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y);
@@ -99,8 +127,10 @@ fn scene(n: usize) -> (App, Entity, Mat4) {
         .world_mut()
         .spawn((camera, transform, GlobalTransform::from(transform)))
         .id();
-    app.update();
-    app.update();
+    // A few frames: the moving units are then kept as busy movers.
+    for _ in 0..if moving { 6 } else { 2 } {
+        app.update();
+    }
     (
         app,
         camera,
@@ -221,7 +251,10 @@ fn count(n: usize) -> String {
 
 pub fn run(quick: bool) -> Report {
     let sizes = if quick { QUICK } else { FULL };
-    let mut progress = Progress::new("selection", sizes.units.len() * (2 + sizes.shares.len()));
+    let cases: Vec<(usize, bool)> = (sizes.units.iter().map(|&n| (n, false)))
+        .chain(sizes.moving_units.iter().map(|&n| (n, true)))
+        .collect();
+    let mut progress = Progress::new("selection", cases.len() * (2 + sizes.shares.len()));
     let mut points: Vec<Point> = Vec::new();
     let mut markdown = vec![
         "| units | inside | mode | selected | brute force | accel | speed-up | accel per selected |"
@@ -239,9 +272,10 @@ pub fn run(quick: bool) -> Report {
     let mut differences = 0u64;
     let mut checked = 0u64;
     let mut samples = Vec::new();
-    for &n in sizes.units {
-        progress.step(&format!("{n} units: the scene"));
-        let (mut app, camera, clip_from_world) = scene(n);
+    for &(n, moving) in &cases {
+        let units = format!("{}{}", count(n), if moving { " moving" } else { "" });
+        progress.step(&format!("{units} units: the scene"));
+        let (mut app, camera, clip_from_world) = scene(n, moving);
         app.init_resource::<Outcome>();
         let ours_id = app.world_mut().register_system(ours);
         let brute_id = app.world_mut().register_system(brute_force);
@@ -277,7 +311,7 @@ pub fn run(quick: bool) -> Report {
                         ));
                     }
                 }
-                let scene = format!("{} units, {}% inside", count(n), share * 100.0);
+                let scene = format!("{units} units, {}% inside", share * 100.0);
                 let mode_name = format!("{mode:?}").to_lowercase();
                 points.push(point(
                     &scene,
@@ -305,7 +339,7 @@ pub fn run(quick: bool) -> Report {
                 };
                 markdown.push(format!(
                     "| {} | {}% | {} | {} | {} | {} | {} | {} |",
-                    count(n),
+                    units,
                     share * 100.0,
                     mode_name,
                     found.len(),
@@ -316,8 +350,8 @@ pub fn run(quick: bool) -> Report {
                 ));
             }
         }
-        progress.step(&format!("{n} units: drags"));
-        drag::run(app, n, sizes.shares, &mut drag_rows, &mut points);
+        progress.step(&format!("{units} units: drags"));
+        drag::run(app, &units, sizes.shares, &mut drag_rows, &mut points);
     }
     markdown.extend(drag_rows);
     Report {
