@@ -19,7 +19,7 @@ use bevy_accel::prelude::*;
 use std::time::Instant;
 
 /// Drags timed a size; medians are reported.
-const DRAGS: usize = 5;
+const DRAGS: usize = 7;
 
 /// The scene's app with the input a window would give, and the pointer.
 struct DragApp {
@@ -146,18 +146,19 @@ fn drags(
     rows: &mut Vec<String>,
     points: &mut Vec<Point>,
 ) {
-    let idle: Vec<f64> = (0..15).map(|_| app.frame()).collect();
-    let idle = median(idle);
     // The rectangle of the query suite (a centred square of `share` of the screen), in
     // logical pixels, and the same shifted right by half its width.
     let size = Vec2::new(1280.0, 720.0);
     let half = Vec2::splat(share.sqrt()) * size / 2.0;
     let (a, b) = (size / 2.0 - half, size / 2.0 + half);
     let shift = Vec2::new(half.x, 0.0);
-    let (mut moves, mut first, mut replace) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut idle, mut moves, mut first, mut replace) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut selected = 0;
     for _ in 0..DRAGS {
         app.clear();
+        // Idle frames between the drags, so that a drift of the machine moves both alike.
+        idle.extend([app.frame(), app.frame(), app.frame()]);
         let [p, m1, m2, r] = app.drag(a, b);
         moves.extend([p, m1, m2]);
         first.push(r);
@@ -169,6 +170,7 @@ fn drags(
     // The median: a frame of the scene is now and then a few milliseconds slower, drag or
     // not (the VM, the trees' upkeep), and the drag adds nothing to these frames.
     let moves = median(moves);
+    let idle = median(idle);
     let first = median(first);
     let replace = median(replace);
     let scene = format!("{units} units, {}% inside, drag", share * 100.0);
