@@ -273,7 +273,7 @@ fn same(got: Option<(Entity, f32)>, want: Option<(Entity, f32)>) -> bool {
 
 #[test]
 fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
-    check_posed_picking(false, None);
+    check_posed_picking(false, Change::None);
 }
 
 /// With Bevy's `DynamicSkinnedMeshBounds`, characters whose weights are glTF's are found by
@@ -281,7 +281,7 @@ fn posed_skinned_meshes_are_picked_where_they_are_drawn() {
 /// summing to one) keep the plugin's own broad phase. Both answer as the brute force.
 #[test]
 fn characters_with_bevys_posed_bounds_are_found_by_the_trees() {
-    check_posed_picking(true, None);
+    check_posed_picking(true, Change::None);
 }
 
 /// Characters that lose Bevy's `DynamicSkinnedMeshBounds` mid-run (their `Aabb` back to the
@@ -289,10 +289,18 @@ fn characters_with_bevys_posed_bounds_are_found_by_the_trees() {
 /// entities a ray poses itself is made again.
 #[test]
 fn characters_that_lose_bevys_posed_bounds_keep_being_picked() {
-    check_posed_picking(true, Some(3));
+    check_posed_picking(true, Change::DropBevyBounds(3));
 }
 
-fn check_posed_picking(dynamic_bounds: bool, drop_bounds_at: Option<usize>) {
+/// What changes on every character at a frame of [`check_posed_picking`].
+#[derive(Clone, Copy, PartialEq)]
+enum Change {
+    None,
+    /// `DynamicSkinnedMeshBounds` removed, the `Aabb` back to the bind pose's.
+    DropBevyBounds(usize),
+}
+
+fn check_posed_picking(dynamic_bounds: bool, change: Change) {
     let mut app = common::app();
     let c = character(Detail::for_triangles(2_000));
     let mut rng = Rng::new(73);
@@ -321,7 +329,7 @@ fn check_posed_picking(dynamic_bounds: bool, drop_bounds_at: Option<usize>) {
                 }
             }
         }
-        if drop_bounds_at == Some(frame) {
+        if change == Change::DropBevyBounds(frame) {
             for ch in &chars {
                 let handle = app.world().get::<Mesh3d>(ch.mesh).unwrap().0.clone();
                 let bind_pose = app

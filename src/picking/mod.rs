@@ -34,6 +34,8 @@ use crate::meshes;
 
 use crate::{AccelSettings, AccelSystems, AccelTrees};
 use bevy::asset::AssetEventSystems;
+use bevy::mesh::morph::MeshMorphWeights;
+use bevy::mesh::skinning::SkinnedMesh;
 use bevy::picking::PickingSystems;
 use bevy::picking::backend::PointerHits;
 use bevy::picking::backend::ray::RayMap;
@@ -148,6 +150,15 @@ impl Plugin for AccelPickingPlugin {
                     .run_if(resource_exists::<AccelTrees>)
                     .run_if(|s: Option<Res<AccelSettings>>| s.is_some_and(|s| s.enabled))
                     .run_if(meshes::slot_mesh_table_in_use),
+            )
+            .add_systems(
+                PostUpdate,
+                posed_pass::watch_posed_meshes
+                    .in_set(AccelPickingSystems)
+                    .run_if(
+                        any_with_component::<SkinnedMesh>
+                            .or_else(any_with_component::<MeshMorphWeights>),
+                    ),
             )
             .add_systems(
                 PreUpdate,

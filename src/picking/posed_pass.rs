@@ -126,18 +126,12 @@ impl SkinnedTargets<'_, '_> {
     }
 }
 
-/// Lists the first pass again when an entity's skin, morph weights, mesh or Bevy's posed
-/// bounds come or go (an entity despawned removes them too).
+/// Lists the first pass again when an entity's skin, morph weights or Bevy's posed bounds
+/// come or go (an entity despawned removes them too). Components that few entities carry:
+/// an observer of every mesh entity's `Mesh3d` would add to the spawn of each (see
+/// [`watch_posed_meshes`] for those).
 pub(crate) fn first_pass_changed(
-    _: On<
-        Insert,
-        (
-            SkinnedMesh,
-            MeshMorphWeights,
-            Mesh3d,
-            DynamicSkinnedMeshBounds,
-        ),
-    >,
+    _: On<Insert, (SkinnedMesh, MeshMorphWeights, DynamicSkinnedMeshBounds)>,
     posed: Res<AccelPosedMeshes>,
 ) {
     posed.first_pass_listed.store(false, Ordering::Release);
@@ -145,18 +139,22 @@ pub(crate) fn first_pass_changed(
 
 /// See [`first_pass_changed`].
 pub(crate) fn first_pass_lost(
-    _: On<
-        Remove,
-        (
-            SkinnedMesh,
-            MeshMorphWeights,
-            Mesh3d,
-            DynamicSkinnedMeshBounds,
-        ),
-    >,
+    _: On<Remove, (SkinnedMesh, MeshMorphWeights, DynamicSkinnedMeshBounds)>,
     posed: Res<AccelPosedMeshes>,
 ) {
     posed.first_pass_listed.store(false, Ordering::Release);
+}
+
+/// Lists the first pass again when a posed entity's mesh handle changed: a check of each
+/// posed entity's change tick a frame, where an observer of `Mesh3d` would run at every mesh
+/// entity's spawn. Rays cast before it in the frame of the change see it from the next.
+pub(crate) fn watch_posed_meshes(
+    changed: Query<(), (PosedFilter, Changed<Mesh3d>)>,
+    posed: Res<AccelPosedMeshes>,
+) {
+    if !changed.is_empty() {
+        posed.first_pass_listed.store(false, Ordering::Release);
+    }
 }
 
 /// The nearest hit on a posed entity's triangles, with the entry distance into its posed
