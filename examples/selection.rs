@@ -7,10 +7,9 @@
 //! failing unless the selection is exactly the units whose centre projects inside the box
 //! (each unit projected by Bevy's `Camera::world_to_viewport`, as a game would).
 
-use bevy::camera::NormalizedRenderTarget;
-use bevy::picking::pointer::{Location, PointerAction, PointerId, PointerInput};
+use bevy::picking::pointer::PointerInput;
 use bevy::prelude::*;
-use bevy::window::{PrimaryWindow, WindowRef};
+use bevy::window::PrimaryWindow;
 use bevy_accel::prelude::*;
 
 mod support;
@@ -173,17 +172,8 @@ fn drag_in_screenshot_mode(
     ) else {
         return;
     };
-    let Some(window_ref) = WindowRef::Primary.normalize(Some(*window)) else {
-        return;
-    };
-    let mut move_to = |position: Vec2| {
-        let location = Location {
-            target: NormalizedRenderTarget::Window(window_ref),
-            position,
-        };
-        let action = PointerAction::Move { delta: Vec2::ZERO };
-        input.write(PointerInput::new(PointerId::Mouse, location, action));
-    };
+    let window = *window;
+    let mut move_to = |position: Vec2| screenshot::move_pointer(window, position, &mut input);
     match *frame {
         10 => move_to(start),
         12 => buttons.press(MouseButton::Left),

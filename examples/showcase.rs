@@ -22,12 +22,11 @@
 //! `ACCEL_BEVY_CULLING=1` Bevy's own culling runs instead of the trees', for comparison;
 //! `ACCEL_OVERLAYS=all` starts with the node and box overlays on.
 
-use bevy::camera::NormalizedRenderTarget;
 use bevy::diagnostic::FrameTimeDiagnosticsPlugin;
 use bevy::picking::hover::HoverMap;
-use bevy::picking::pointer::{Location, PointerAction, PointerId, PointerInput};
+use bevy::picking::pointer::{PointerId, PointerInput};
 use bevy::prelude::*;
-use bevy::window::{PrimaryWindow, WindowRef};
+use bevy::window::PrimaryWindow;
 use bevy_accel::prelude::*;
 
 mod support;
@@ -290,8 +289,7 @@ fn synthetic_click_and_drag(
         return;
     }
     *frame += 1;
-    let (Some(target), Some(window_ref)) = (target, WindowRef::Primary.normalize(Some(*window)))
-    else {
+    let Some(target) = target else {
         return;
     };
     let (camera, camera_tf) = *camera;
@@ -304,14 +302,8 @@ fn synthetic_click_and_drag(
     ) else {
         return;
     };
-    let mut move_to = |position: Vec2| {
-        let location = Location {
-            target: NormalizedRenderTarget::Window(window_ref),
-            position,
-        };
-        let action = PointerAction::Move { delta: Vec2::ZERO };
-        input.write(PointerInput::new(PointerId::Mouse, location, action));
-    };
+    let window = *window;
+    let mut move_to = |position: Vec2| screenshot::move_pointer(window, position, &mut input);
     match *frame {
         10 => move_to(at_target),
         12 | 20 => buttons.press(MouseButton::Left),

@@ -70,3 +70,24 @@ pub fn synthetic_click(
     };
     input.write(PointerInput::new(PointerId::Mouse, location, action));
 }
+
+/// Screenshot mode's pointer motion: moves the mouse to `position` (logical pixels) of the
+/// primary `window`, as bevy_picking's input from a window would.
+pub fn move_pointer(
+    window: Entity,
+    position: Vec2,
+    input: &mut MessageWriter<bevy::picking::pointer::PointerInput>,
+) {
+    use bevy::camera::NormalizedRenderTarget;
+    use bevy::picking::pointer::{Location, PointerAction, PointerId, PointerInput};
+    use bevy::window::WindowRef;
+    let Some(window_ref) = WindowRef::Primary.normalize(Some(window)) else {
+        return;
+    };
+    let location = Location {
+        target: NormalizedRenderTarget::Window(window_ref),
+        position,
+    };
+    let action = PointerAction::Move { delta: Vec2::ZERO };
+    input.write(PointerInput::new(PointerId::Mouse, location, action));
+}
