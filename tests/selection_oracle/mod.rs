@@ -2,6 +2,7 @@
 //! (touching: clipped at the near plane, then tested against the rectangle by separating axes)
 //! or every corner of every world box (enclosed, centre), and compare with the rectangle.
 
+use accel_testkit::screen_oracle::{clip_polygon, polygon_meets_rect};
 use bevy::math::{DAffine3, DMat4, DVec2, DVec3, DVec4};
 
 /// One rectangle of one camera, in `f64`, with the rectangle moved by `grow` (NDC) outwards
@@ -86,55 +87,4 @@ pub fn box_triangles(c: &[DVec3; 8]) -> Vec<[DVec3; 3]> {
         .iter()
         .flat_map(|&[a, b, cc, d]| [[c[a], c[b], c[cc]], [c[a], c[cc], c[d]]])
         .collect()
-}
-
-/// Sutherland-Hodgman: the part of a convex polygon (homogeneous points) where `inside >= 0`.
-fn clip_polygon(points: &[DVec4], inside: impl Fn(DVec4) -> f64) -> Vec<DVec4> {
-    let mut out = Vec::new();
-    for i in 0..points.len() {
-        let (a, b) = (points[i], points[(i + 1) % points.len()]);
-        let (da, db) = (inside(a), inside(b));
-        if da >= 0.0 {
-            out.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    out
-}
-
-/// Whether a convex polygon (possibly a segment or a point) meets the closed rectangle
-/// `[lo, hi]` (possibly degenerate), by separating axes.
-fn polygon_meets_rect(polygon: &[DVec2], lo: DVec2, hi: DVec2) -> bool {
-    if polygon.is_empty() {
-        return false;
-    }
-    let (min, max) = polygon
-        .iter()
-        .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(a, b), &p| {
-            (a.min(p), b.max(p))
-        });
-    if max.cmplt(lo).any() || min.cmpgt(hi).any() {
-        return false;
-    }
-    let rect = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
-    for i in 0..polygon.len() {
-        let axis = (polygon[(i + 1) % polygon.len()] - polygon[i]).perp();
-        if axis == DVec2::ZERO {
-            continue;
-        }
-        let span = |pts: &mut dyn Iterator<Item = DVec2>| {
-            pts.map(|p| p.dot(axis))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-                    (a.min(x), b.max(x))
-                })
-        };
-        let (p0, p1) = span(&mut polygon.iter().copied());
-        let (r0, r1) = span(&mut rect.iter().copied());
-        if p1 < r0 || r1 < p0 {
-            return false;
-        }
-    }
-    true
 }

@@ -19,6 +19,7 @@
 //!   triangles) as plain data, its walk cycle, CPU forward kinematics and skinning, and its
 //!   binary glTF form, which the `animated` example loads from `assets/character.glb`.
 //! - [`glb`]: the small binary glTF writer behind the generated assets.
+//! - [`screen_oracle`]: the selection oracles' clipping and screen-rectangle tests, in f64.
 //! - `bevy_apps` (feature `bevy`): the plain headless Bevy app of the plugin's tests and
 //!   benches (to which they add the plugin), the culling scenes' grid, and (feature `lights`)
 //!   bevy_light in that app.
@@ -43,6 +44,7 @@ pub mod dynamic_workload;
 pub mod glb;
 mod mesh;
 mod rng;
+pub mod screen_oracle;
 pub mod shapes;
 pub mod skinned;
 pub mod triangle_scene;
