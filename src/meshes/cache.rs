@@ -224,10 +224,7 @@ pub(crate) fn invalidate_changed_meshes(
         })
         .collect();
     for id in stale {
-        posed.lock().forget_mesh(id);
-        posed
-            .first_pass_listed
-            .store(false, core::sync::atomic::Ordering::Release);
+        posed.forget_mesh(id);
         if cache.contains(id) {
             cache.invalidate(id);
         }

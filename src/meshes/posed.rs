@@ -295,8 +295,8 @@ pub(crate) struct PosedState {
 pub struct AccelPosedMeshes {
     pub(crate) state: Mutex<PosedState>,
     /// [`PosedState::first_pass`] is up to date: cleared when a posed entity's skin, morph
-    /// weights, mesh or bounds come or go, or a mesh asset changes. Outside the lock, for the
-    /// observers that clear it on every mesh entity's spawn.
+    /// weights, mesh or bounds come or go, or a mesh asset changes. Outside the lock: the
+    /// observers and the per-frame check that clear it take no lock.
     pub(crate) first_pass_listed: AtomicBool,
 }
 
@@ -314,6 +314,14 @@ impl AccelPosedMeshes {
     /// Posed trees built or refit since the last call (the picking stats take it each frame).
     pub fn take_refits(&self) -> usize {
         core::mem::take(&mut self.lock().refits)
+    }
+
+    /// Forgets the shapes of a mesh asset that changed, their entities' poses, and the list of
+    /// the first pass (which judged entities by that asset).
+    pub(crate) fn forget_mesh(&self, mesh: AssetId<Mesh>) {
+        self.lock().forget_mesh(mesh);
+        self.first_pass_listed
+            .store(false, core::sync::atomic::Ordering::Release);
     }
 
     pub(crate) fn lock(&self) -> std::sync::MutexGuard<'_, PosedState> {
