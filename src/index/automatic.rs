@@ -59,7 +59,8 @@ impl AutomaticIndexSettings {
 /// What the automatic choice last saw, in [`AccelStats::automatic`](crate::AccelStats).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AutomaticIndexStats {
-    /// The structure it recommends now.
+    /// The structure it recommends after this frame's figures: the next frame's switch
+    /// moves the movers there (at once for a few, off the frame for many).
     pub recommended: IndexChoice,
     /// Averaged share of the dynamic entities moved a frame.
     pub moved_share: f32,

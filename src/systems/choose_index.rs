@@ -26,18 +26,18 @@ impl AutomaticIndex {
     }
 }
 
-/// The frame's choice of structure: the advice from the last frame's workload, then the
-/// switch it asks for. One system, not two chained: each system a frame costs the executor a
-/// task and a wake-up, which a small world notices.
+/// Starts, advances or lands the switch of the movers' index that the settings (or the
+/// automatic choice) ask for. Runs only while one is due ([`index_switch_due`]): the choice
+/// itself is made at the end of each frame's maintenance, so a frame with nothing to switch
+/// spends no system on it (each costs the executor a task and a thread wake-up, which a small
+/// world notices).
 pub(crate) fn choose_index(
     settings: Res<AccelSettings>,
-    mut automatic: ResMut<AutomaticIndex>,
-    mut stats: ResMut<AccelStats>,
+    automatic: Res<AutomaticIndex>,
     mut trees: ResMut<AccelTrees>,
     mut rejected: ResMut<RejectedEntities>,
     mut report: ResMut<IndexSwitchReport>,
 ) {
-    advise_index(&settings, &mut automatic, &mut stats);
     switch_index(
         &settings,
         &automatic,
@@ -47,9 +47,23 @@ pub(crate) fn choose_index(
     );
 }
 
-/// Feeds the last frame's workload to the advisor, before the sync that may act on it. Runs
-/// only while the choice is automatic, so a fixed index pays nothing for it.
-fn advise_index(settings: &AccelSettings, automatic: &mut AutomaticIndex, stats: &mut AccelStats) {
+/// Whether [`choose_index`] has work: a switch in flight, or an index other than the one the
+/// settings ask for now.
+pub(crate) fn index_switch_due(
+    settings: Res<AccelSettings>,
+    automatic: Res<AutomaticIndex>,
+    trees: Res<AccelTrees>,
+) -> bool {
+    trees.index_switch_in_flight() || trees.query().choice() != automatic.resolve(settings.index)
+}
+
+/// Feeds the frame's workload to the advisor, once the frame's figures are published; the
+/// next frame's [`choose_index`] acts on its advice. Does nothing while the choice is fixed.
+pub(super) fn advise_index(
+    settings: &AccelSettings,
+    automatic: &mut AutomaticIndex,
+    stats: &mut AccelStats,
+) {
     if settings.index != IndexChoice::Automatic {
         stats.automatic = None;
         return;
@@ -71,7 +85,8 @@ fn advise_index(settings: &AccelSettings, automatic: &mut AutomaticIndex, stats:
     });
 }
 
-/// What the index switch did this frame, for the sync's counts.
+/// What the index switch did this frame, for the sync's counts (which take it, so that a
+/// frame without a switch counts nothing).
 #[derive(Resource, Default)]
 pub(crate) struct IndexSwitchReport {
     /// Dynamic entities moved into a new structure that landed this frame.

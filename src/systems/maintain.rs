@@ -2,6 +2,8 @@
 //! and whichever index holds the moving entities kept consistent and improved.
 
 use super::bvh_upkeep::{RayTraffic, maintain_bvh};
+use super::choose_index::{AutomaticIndex, advise_index};
+use super::publish_stats::publish_tree_stats;
 use crate::index::dynamic_config;
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
@@ -11,15 +13,21 @@ use spatial_accel::query::DynamicIndex;
 use std::time::Instant;
 
 /// The trees' upkeep in one system (each system a frame costs the executor a task and a
-/// wake-up, which a small world notices): the static tree's builds, then the dynamic index's.
+/// wake-up, which a small world notices): the static tree's builds, then the dynamic index's,
+/// then the frame's figures published and the automatic choice of index fed with them.
 pub(crate) fn maintain_trees(
     settings: Res<AccelSettings>,
     mut trees: ResMut<AccelTrees>,
     mut stats: ResMut<AccelStats>,
+    mut automatic: ResMut<AutomaticIndex>,
     mut traffic: Local<RayTraffic>,
 ) {
     land_static_builds(&settings, &mut trees, &mut stats);
     maintain_index(&settings, &mut trees, &mut stats, &mut traffic);
+    if trees.is_changed() {
+        publish_tree_stats(&trees, &mut stats);
+    }
+    advise_index(&settings, &mut automatic, &mut stats);
 }
 
 /// Makes the dynamic index consistent after the sync's edits and lets it spend

@@ -2,14 +2,17 @@
 //! one before, all after transform propagation and bounds calculation, and before Bevy's
 //! visibility checks, so that culling sees this frame's trees):
 //!
-//! 1. [`AccelSystems::ChooseIndex`] (`choose_index`): the automatic choice reads the last
-//!    frames' workload; a switch of the movers' index starts, or lands when its fill is done.
+//! 1. [`AccelSystems::ChooseIndex`] (`choose_index`, only while a switch is due): a switch
+//!    of the movers' index starts, or lands when its fill is done.
 //! 2. [`AccelSystems::Sync`] (`sync`, with `membership` and `prefetched`): entities that
 //!    appeared, changed membership, moved or left are placed in the trees or taken out; busy
 //!    movers that went quiet go back into the index.
 //! 3. [`AccelSystems::Maintain`] (`maintain`, `bvh_upkeep`): the static tree's builds land
-//!    or start; the dynamic index is refit and improved within its budget.
-//! 4. [`AccelSystems::Stats`] (`publish_stats`): [`AccelStats`](crate::AccelStats).
+//!    or start; the dynamic index is refit and improved within its budget; the frame's
+//!    [`AccelStats`](crate::AccelStats) are published (`publish_stats`) and the automatic
+//!    choice of index reads them.
+//! 4. [`AccelSystems::Stats`]: none of the plugin's own; the point after which the trees and
+//!    [`AccelStats`](crate::AccelStats) hold the whole frame's state.
 //!
 //! In `Last`, one system (`publish_diagnostics`) adds the trees', the culling's and the
 //! picking's figures to Bevy's diagnostics.
@@ -36,15 +39,17 @@ use bevy::transform::TransformSystems;
 /// [`AccelSystems::Stats`] for the whole frame's state).
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum AccelSystems {
-    /// The structure that holds the moving entities chosen, and a switch to another one
-    /// started or landed.
+    /// A switch of the movers' index to the one the settings or the automatic choice ask for
+    /// started or landed (its system runs only while a switch is due).
     ChooseIndex,
     /// Entities inserted, moved and removed.
     Sync,
     /// The static tree's builds landed; the dynamic index refit, optimised, and rebuilt when
     /// its quality decays.
     Maintain,
-    /// Statistics published (the diagnostics follow in `Last`).
+    /// After it, [`AccelStats`](crate::AccelStats) and the trees hold the frame's state
+    /// (published at the end of the maintenance, which saves the executor a system a frame;
+    /// the diagnostics follow in `Last`).
     Stats,
 }
 
@@ -71,10 +76,11 @@ pub(crate) fn add_tree_systems(app: &mut App) {
         .add_systems(
             PostUpdate,
             (
-                choose_index::choose_index.in_set(AccelSystems::ChooseIndex),
+                choose_index::choose_index
+                    .in_set(AccelSystems::ChooseIndex)
+                    .run_if(choose_index::index_switch_due),
                 sync::sync_trees.in_set(AccelSystems::Sync),
                 maintain::maintain_trees.in_set(AccelSystems::Maintain),
-                publish_stats::publish_stats.in_set(AccelSystems::Stats),
             ),
         )
         .add_systems(Last, publish_stats::publish_diagnostics);

@@ -61,13 +61,14 @@ pub(crate) fn sync_trees(
     mut pending: ResMut<PendingMembership>,
     mut rejected: ResMut<RejectedEntities>,
     mut stats: ResMut<AccelStats>,
-    switch: Res<IndexSwitchReport>,
+    mut switch: ResMut<IndexSwitchReport>,
     membership: MembershipQuery,
     moved: MovedQuery<Without<AccelStatic>>,
     moved_static: MovedQuery<With<AccelStatic>>,
     mut batches: Local<Parallel<MovesBatch>>,
 ) {
     let start = Instant::now();
+    let switch = core::mem::take(&mut *switch);
     let mut counts = SyncCounts {
         // Every dynamic entity moved to a new index that landed this frame: as many updates,
         // for the readers.
