@@ -149,6 +149,14 @@ pub(crate) fn sync_trees(
         for item in left.into_iter().filter_map(|entity| moved.get(entity).ok()) {
             place(&mut state, item);
         }
+    } else if busy_on {
+        // With the busy movers' list in use, nearly every mover is a busy mover: its rows come
+        // in table order and its entry is the next one written, so there is nothing scattered
+        // to ask for ahead, and the stages' lookups cost more than they hide (BENCHMARKS.md,
+        // Plugin sync).
+        let mut state = (&mut *tree_state, &mut *rejected, &mut counts);
+        let place = place_moved(false);
+        moved.iter().for_each(|item| place(&mut state, item));
     } else {
         let mut state = (&mut *tree_state, &mut *rejected, &mut counts);
         for_each_prefetched_in_two_stages(
