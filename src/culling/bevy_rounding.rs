@@ -15,7 +15,7 @@ use crate::trees::AccelTrees;
 use bevy::math::{Vec3A, Vec4};
 use bevy::tasks::ComputeTaskPool;
 use spatial_accel::query::views::ViewClassification;
-use spatial_accel::{Aabb, Containment, Frustum};
+use spatial_accel::{Aabb, Containment, Frustum, FrustumLanes};
 
 /// `b` grown by a few ulps of its largest coordinate (and a little more near the origin).
 #[inline]
@@ -26,9 +26,10 @@ pub(crate) fn grown_past_rounding(b: &Aabb) -> Aabb {
 
 /// How a tree box stands with a frustum, as a verdict Bevy's per-entity test will agree
 /// with: `Outside` only if Bevy's test drops every entity in it, `Inside` only if it keeps
-/// them.
+/// them. The frustum comes with its side planes laid out lane-wise (made once a walk), which
+/// drops a box without a branch per plane.
 #[inline]
-pub(crate) fn classify_for_bevy(frustum: &Frustum, b: &Aabb) -> Containment {
+pub(crate) fn classify_for_bevy(frustum: &FrustumLanes, b: &Aabb) -> Containment {
     frustum.classify_aabb(&grown_past_rounding(b))
 }
 
@@ -52,6 +53,7 @@ pub(crate) fn walk_frustum_for_bevy(
     layers: WalkedLayers,
     mut visit: impl FnMut(u32, Containment),
 ) {
+    let frustum = &FrustumLanes::new(frustum);
     let classify = |b: &Aabb, _| match classify_for_bevy(frustum, b) {
         Containment::Inside => ViewClassification {
             inside: 1,
@@ -87,7 +89,7 @@ const PARALLEL_BUSY_FROM: usize = 16_384;
 /// independent), the finds handed to `visit` in the list's order either way.
 fn walk_busy_movers_for_bevy(
     trees: &AccelTrees,
-    frustum: &Frustum,
+    frustum: &FrustumLanes,
     mut visit: impl FnMut(u32, Containment),
 ) {
     let entries = trees.query().busy_movers().entries();
@@ -150,7 +152,7 @@ mod tests {
     use bevy::math::primitives::{HalfSpace, ViewFrustum};
     use bevy::math::{Vec3A, Vec4};
     use bevy::prelude::*;
-    use spatial_accel::{Containment, Frustum as AccelFrustum};
+    use spatial_accel::{Containment, Frustum as AccelFrustum, FrustumLanes};
 
     /// Entities up to 1e6 from the origin, each with a near plane through the corner of its
     /// world box that the plane's normal points away from (in front) or towards (behind),
@@ -194,7 +196,10 @@ mod tests {
             let frustum = Frustum(ViewFrustum { half_spaces });
             let kept = bevy_frustum_test(&frustum, Some(&aabb), None, &transform);
             let planes = frustum.half_spaces.map(|h| tree_plane(h.normal_d()));
-            match classify_for_bevy(&AccelFrustum::from_planes(planes), &world) {
+            match classify_for_bevy(
+                &FrustumLanes::new(&AccelFrustum::from_planes(planes)),
+                &world,
+            ) {
                 Containment::Outside if kept => dropped += 1,
                 Containment::Inside if !kept => accepted += 1,
                 _ => {}

@@ -2,6 +2,7 @@
 
 mod aabb;
 mod frustum;
+mod frustum_lanes;
 mod frustum_triangle;
 mod ray;
 mod ray_aabb;
@@ -14,6 +15,7 @@ mod triangle_clip;
 
 pub use aabb::Aabb;
 pub use frustum::{Containment, Frustum, Plane};
+pub use frustum_lanes::FrustumLanes;
 pub use frustum_triangle::TOUCH_TOLERANCE;
 pub(crate) use frustum_triangle::touch_band;
 pub use ray::Ray;
