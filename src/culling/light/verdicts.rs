@@ -23,7 +23,7 @@ use bevy::math::Vec4;
 use bevy::prelude::*;
 use spatial_accel::SpatialQuery;
 use spatial_accel::query::views::{ViewClassification, ViewMasks};
-use spatial_accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum};
+use spatial_accel::{Aabb as AccelAabb, Containment, Frustum as AccelFrustum, FrustumLanes};
 use std::collections::HashMap;
 
 /// Most lists a light view may have for the trees to settle its tests: a point light has six
@@ -80,13 +80,18 @@ pub(super) fn unpack(m: u16) -> (u32, u32) {
 pub(super) fn walk_lists(
     trees: &AccelTrees,
     lists: &LightLists,
-    walk_frusta: &mut Vec<AccelFrustum>,
+    walk_frusta: &mut Vec<FrustumLanes>,
     visit: impl FnMut(u32, ViewMasks),
 ) {
     debug_assert!(lists.planes.len() <= 32);
     // Built once per walk: a frustum normalises its planes.
     walk_frusta.clear();
-    walk_frusta.extend(lists.planes.iter().map(|p| AccelFrustum::from_planes(*p)));
+    walk_frusta.extend(
+        lists
+            .planes
+            .iter()
+            .map(|p| FrustumLanes::new(&AccelFrustum::from_planes(*p))),
+    );
     let all = match lists.planes.len() {
         0 => 0,
         n => u32::MAX >> (32 - n),
@@ -118,7 +123,7 @@ pub(super) struct LightLists<'a> {
 /// camera walks (see `bevy_rounding`).
 fn classify_for_lists(
     lists: &LightLists,
-    walk_frusta: &[AccelFrustum],
+    walk_frusta: &[FrustumLanes],
     b: &AccelAabb,
     undecided: u32,
 ) -> ViewClassification {
@@ -181,7 +186,7 @@ pub(super) struct LightVerdicts {
     /// The shape of the view being walked (scratch).
     shape: Vec<u32>,
     /// Its lists' frusta as the walk tests them (scratch).
-    walk_frusta: Vec<AccelFrustum>,
+    walk_frusta: Vec<FrustumLanes>,
 }
 
 impl LightVerdicts {

@@ -78,7 +78,7 @@ pub(super) struct LightCandidates {
     /// among them are skipped: they come again in `others`.
     walked: Vec<(Entity, u16)>,
     /// The view's lists' frusta as the walk tests them (scratch).
-    walk_frusta: Vec<spatial_accel::Frustum>,
+    walk_frusta: Vec<spatial_accel::FrustumLanes>,
     /// The shape of the view being gathered (scratch).
     shape: Vec<u32>,
     /// Everything a walk cannot find (see [`UntrackedEntities`]).
