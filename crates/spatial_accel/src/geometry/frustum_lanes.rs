@@ -51,13 +51,11 @@ pub struct FrustumLanes {
 impl FrustumLanes {
     /// `frustum`, with its side planes laid out lane-wise.
     pub fn new(frustum: &Frustum) -> Self {
-        let p = &frustum.planes;
-        let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(3));
-        let (nx, ny, nz) = (
-            lanes(&|i| p[i].normal.x),
-            lanes(&|i| p[i].normal.y),
-            lanes(&|i| p[i].normal.z),
-        );
+        let [a, b, c, d] =
+            [0, 1, 2, 3].map(|i| frustum.planes[i].normal.extend(frustum.planes[i].d));
+        // The planes as columns, so each row holds one component of all four.
+        let rows = glam::Mat4::from_cols(a, b, c, d).transpose();
+        let (nx, ny, nz) = (rows.x_axis, rows.y_axis, rows.z_axis);
         Self {
             frustum: *frustum,
             px: nx.cmpge(Vec4::ZERO),
@@ -66,13 +64,8 @@ impl FrustumLanes {
             nx,
             ny,
             nz,
-            d: lanes(&|i| p[i].d),
+            d: rows.w_axis,
         }
-    }
-
-    /// The frustum it was made from.
-    pub fn frustum(&self) -> &Frustum {
-        &self.frustum
     }
 
     /// How `aabb` stands with the frustum: [`Frustum::classify_aabb`]'s verdict, bit for bit.
