@@ -1,6 +1,6 @@
 //! Culling on a compute pool of four threads against Bevy's own culling on the same pool:
-//! many busy movers (their frustum test split across the pool), a narrow view on the tree
-//! path and a wide one on the flat pass. A process of its own, so that its pool has the
+//! many busy movers (their frustum test split across the pool, beside the trees' walk), a
+//! narrow view on the tree path (its finds decided in parts) and a wide one on the flat pass. A process of its own, so that its pool has the
 //! threads it asks for.
 
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -143,6 +143,7 @@ fn busy_movers_culled_on_four_threads_equal_bevys() {
     let b = populate(&mut accel_app);
     let mut most_busy = 0;
     let mut flat_views = 0;
+    let mut decided_in_parts = 0;
     for frame in 0..8 {
         bevy_app.update();
         accel_app.update();
@@ -158,8 +159,14 @@ fn busy_movers_culled_on_four_threads_equal_bevys() {
         );
         assert_eq!(want, got, "frame {frame}");
         most_busy = most_busy.max(accel_app.world().resource::<AccelStats>().busy_movers);
-        flat_views += accel_app.world().resource::<CullingStats>().flat_views;
+        let culling = accel_app.world().resource::<CullingStats>();
+        flat_views += culling.flat_views;
+        decided_in_parts += culling.views_decided_in_parts;
     }
     assert!(most_busy > 16_384, "{most_busy} busy movers at most");
     assert!(flat_views > 0, "the wide view never took the flat pass");
+    assert!(
+        decided_in_parts > 0,
+        "the narrow view's finds were never decided in parts"
+    );
 }

@@ -45,8 +45,9 @@ pub(crate) enum WalkedLayers {
 
 /// Calls `visit(slot, containment)` for each slot whose tree box the frustum does not drop,
 /// with `Inside` where a whole subtree was accepted ([`classify_for_bevy`] at every node).
-/// The busy movers (with [`WalkedLayers::All`]) come last, tested on every thread of the
-/// compute pool when they are many.
+/// The busy movers (with [`WalkedLayers::All`]) come last; when they are many and the compute
+/// pool has more than one thread, they are tested on the pool while this thread walks the
+/// trees.
 pub(crate) fn walk_frustum_for_bevy(
     trees: &AccelTrees,
     frustum: &Frustum,
@@ -54,6 +55,59 @@ pub(crate) fn walk_frustum_for_bevy(
     mut visit: impl FnMut(u32, Containment),
 ) {
     let frustum = &FrustumLanes::new(frustum);
+    let busy = match layers {
+        WalkedLayers::All => trees.query().busy_movers().entries(),
+        WalkedLayers::TreesOnly => &[],
+    };
+    let pool = ComputeTaskPool::try_get()
+        .filter(|pool| pool.thread_num() > 1 && busy.len() >= CONCURRENT_BUSY_FROM);
+    let Some(pool) = pool else {
+        walk_trees_for_bevy(trees, frustum, &mut visit);
+        for entry in busy {
+            match classify_for_bevy(frustum, &entry.bounds) {
+                Containment::Outside => {}
+                containment => visit(entry.id, containment),
+            }
+        }
+        return;
+    };
+    // Why: the trees' walk and the busy movers' tests are independent, and each is a serial
+    // loop; a view that waits for both in turn does not get faster with threads, where Bevy's
+    // own loop does (issue 72). The scope's body walks the trees on this thread while the
+    // pool's other threads take the movers' parts.
+    let part = busy
+        .len()
+        .div_ceil(pool.thread_num() * 4)
+        .max(CONCURRENT_BUSY_FROM / 4);
+    let parts: Vec<Vec<(u32, Containment)>> = pool.scope(|scope| {
+        for chunk in busy.chunks(part) {
+            scope.spawn(async move {
+                chunk
+                    .iter()
+                    .filter_map(|entry| match classify_for_bevy(frustum, &entry.bounds) {
+                        Containment::Outside => None,
+                        containment => Some((entry.id, containment)),
+                    })
+                    .collect()
+            });
+        }
+        walk_trees_for_bevy(trees, frustum, &mut visit);
+    });
+    for (slot, containment) in parts.into_iter().flatten() {
+        visit(slot, containment);
+    }
+}
+
+/// From this many busy movers, with more than one compute thread, a view's test of them runs
+/// on the pool beside its walk of the trees.
+const CONCURRENT_BUSY_FROM: usize = 4_096;
+
+/// The static tree and the dynamic index: [`walk_frustum_for_bevy`] without the busy movers.
+fn walk_trees_for_bevy(
+    trees: &AccelTrees,
+    frustum: &FrustumLanes,
+    visit: &mut impl FnMut(u32, Containment),
+) {
     let classify = |b: &Aabb, _| match classify_for_bevy(frustum, b) {
         Containment::Inside => ViewClassification {
             inside: 1,
@@ -75,52 +129,6 @@ pub(crate) fn walk_frustum_for_bevy(
             };
             visit(slot, containment);
         });
-    if layers == WalkedLayers::All {
-        walk_busy_movers_for_bevy(trees, frustum, visit);
-    }
-}
-
-/// From this many busy movers, with more than one compute thread, a view's test of them is
-/// split across the pool.
-const PARALLEL_BUSY_FROM: usize = 16_384;
-
-/// The busy movers' part of [`walk_frustum_for_bevy`]: every entry classified, in parts on
-/// the compute pool when the list is long (a view tests every busy mover, and the tests are
-/// independent), the finds handed to `visit` in the list's order either way.
-fn walk_busy_movers_for_bevy(
-    trees: &AccelTrees,
-    frustum: &FrustumLanes,
-    mut visit: impl FnMut(u32, Containment),
-) {
-    let entries = trees.query().busy_movers().entries();
-    let pool = ComputeTaskPool::try_get()
-        .filter(|pool| pool.thread_num() > 1 && entries.len() >= PARALLEL_BUSY_FROM);
-    let Some(pool) = pool else {
-        for entry in entries {
-            match classify_for_bevy(frustum, &entry.bounds) {
-                Containment::Outside => {}
-                containment => visit(entry.id, containment),
-            }
-        }
-        return;
-    };
-    let part = entries.len().div_ceil(pool.thread_num() * 4);
-    let parts: Vec<Vec<(u32, Containment)>> = pool.scope(|scope| {
-        for chunk in entries.chunks(part) {
-            scope.spawn(async move {
-                chunk
-                    .iter()
-                    .filter_map(|entry| match classify_for_bevy(frustum, &entry.bounds) {
-                        Containment::Outside => None,
-                        containment => Some((entry.id, containment)),
-                    })
-                    .collect()
-            });
-        }
-    });
-    for (slot, containment) in parts.into_iter().flatten() {
-        visit(slot, containment);
-    }
 }
 
 /// A half-space of a Bevy frustum as the trees must test it to keep every entity Bevy's

@@ -14,11 +14,15 @@ use bevy::prelude::*;
 use bevy::tasks::ComputeTaskPool;
 
 /// Below this many entities one thread decides them all: a task's start costs more than it
-/// saves.
+/// saves. With one compute thread the parts only overlap with the calling thread.
 const PARALLEL_FROM: usize = 8_192;
 
+/// [`PARALLEL_FROM`] where the pool has threads of its own to give the parts: a view's
+/// decisions then shrink with threads as Bevy's loop does (issue 72).
+const PARALLEL_FROM_SEVERAL_THREADS: usize = 2_048;
+
 /// The fewest entities a part is given.
-const MIN_PART: usize = 2_048;
+const MIN_PART: usize = 1_024;
 
 /// How many entities ahead of its decision an entity's rows are prefetched: enough
 /// decisions to cover a memory latency.
@@ -120,7 +124,14 @@ fn decide_list(
     let parts = pool.map_or(1, |pool| {
         (4 * (pool.thread_num() + 1)).min(list.len() / MIN_PART)
     });
-    let (Some(pool), true) = (pool, list.len() >= PARALLEL_FROM && parts >= 2) else {
+    let from = pool.map_or(PARALLEL_FROM, |pool| {
+        if pool.thread_num() > 1 {
+            PARALLEL_FROM_SEVERAL_THREADS
+        } else {
+            PARALLEL_FROM
+        }
+    });
+    let (Some(pool), true) = (pool, list.len() >= from && parts >= 2) else {
         let tally = decide_part(decider, list, fresh, lists);
         return (tally, false);
     };
