@@ -3,11 +3,18 @@
 //! [`KeyedList`](super::KeyedList), the list of fast movers, so both answer alike.
 
 use super::views::{ViewClassification, ViewMasks};
+use crate::geometry::RayLanes;
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
 use core::ops::ControlFlow;
 use glam::Vec3A;
 
 /// Every entry whose box the ray enters within its current range.
+///
+/// The boxes are tested four at a time lane-wise ([`RayLanes`]) at the range the ray had
+/// before the four, and each box kept is tested again at the current range before it is
+/// visited: `visit` may shrink the range (a closest-hit search), and the lanes then kept a
+/// box the shrunk ray misses. So the boxes visited, and their order, are the one-by-one
+/// loop's.
 pub(crate) fn walk_ray<'a, V>(
     entries: impl Iterator<Item = (u32, &'a Aabb)>,
     ray: &mut Ray,
@@ -20,9 +27,25 @@ where
     if !ray.is_traceable() {
         return ControlFlow::Continue(());
     }
-    for (id, b) in entries {
-        if ray.intersect_aabb(b).is_some() {
-            visit(id, ray)?;
+    let lanes = RayLanes::new(ray);
+    let mut entries = entries.peekable();
+    while entries.peek().is_some() {
+        let group: [Option<(u32, &Aabb)>; 4] = core::array::from_fn(|_| entries.next());
+        let [Some(a), Some(b), Some(c), Some(d)] = group else {
+            for (id, b) in group.into_iter().flatten() {
+                if ray.intersect_aabb(b).is_some() {
+                    visit(id, ray)?;
+                }
+            }
+            break;
+        };
+        let mut kept = lanes.hits([a.1, b.1, c.1, d.1], ray.t_min, ray.t_max);
+        while kept != 0 {
+            let (id, b) = [a, b, c, d][kept.trailing_zeros() as usize];
+            kept &= kept - 1;
+            if ray.intersect_aabb(b).is_some() {
+                visit(id, ray)?;
+            }
         }
     }
     ControlFlow::Continue(())
