@@ -230,23 +230,27 @@ fn move_busy_movers_in_parallel(
 ) -> Vec<Entity> {
     let moves = trees.concurrent_busy_moves();
     let batches_ref = &*batches;
-    moved.par_iter().for_each(|(entity, aabb, gt, marked)| {
-        if require_marker && !marked {
-            return;
-        }
-        let mut batch = batches_ref.borrow_local_mut();
-        let placed = match placement(aabb, gt) {
-            // SAFETY: the query yields each entity once in this pass, and `moves` lives
-            // only for it.
-            Ok(at) => unsafe { moves.move_busy(entity, at.world) },
-            Err(_) => None,
-        };
-        match placed {
-            Some(Placed::Moved) => batch.busy_moved += 1,
-            Some(_) => {}
-            None => batch.left.push(entity),
-        }
-    });
+    // The thread's batch is found once per batch of the query, not once per entity (a
+    // thread-local lookup each).
+    let batch_of_thread = || batches_ref.borrow_local_mut();
+    moved
+        .par_iter()
+        .for_each_init(batch_of_thread, |batch, (entity, aabb, gt, marked)| {
+            if require_marker && !marked {
+                return;
+            }
+            let placed = match placement(aabb, gt) {
+                // SAFETY: the query yields each entity once in this pass, and `moves` lives
+                // only for it.
+                Ok(at) => unsafe { moves.move_busy(entity, at.world) },
+                Err(_) => None,
+            };
+            match placed {
+                Some(Placed::Moved) => batch.busy_moved += 1,
+                Some(_) => {}
+                None => batch.left.push(entity),
+            }
+        });
     let mut left = Vec::new();
     for batch in batches.iter_mut() {
         counts.busy_moved += batch.busy_moved;
