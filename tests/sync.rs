@@ -128,14 +128,20 @@ fn busy_movers_go_back_to_the_index_when_quiet_or_switched_off() {
     }
 }
 
-#[test]
-fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_calm() {
+/// An app choosing its index automatically (deciding within 3 frames), with `busy` movers,
+/// over 1,000 entities; `moving_for` frames half of them move, then all stand still. Returns
+/// the app and the indexes it went through, in order.
+fn automatic_choice_over_movers(busy: BusyMovers, moving_for: usize) -> (App, Vec<IndexChoice>) {
     let settings = AccelSettings {
         index: IndexChoice::Automatic,
         automatic: AutomaticIndexSettings {
             min_entities: 100,
             hold_frames: 3,
             frames_between_switches: 0,
+            ..default()
+        },
+        busy_movers: BusyMoverSettings {
+            mode: busy,
             ..default()
         },
         ..default()
@@ -153,9 +159,8 @@ fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_cal
     // The choice reads each frame's figures at the end of its maintenance; the next frame
     // switches to what it recommends.
     let mut recommended = IndexChoice::Bvh;
-    for frame in 0..80 {
-        // Half of them move for 40 frames, then all stand still.
-        if frame < 40 {
+    for frame in 0..2 * moving_for {
+        if frame < moving_for {
             for &e in entities.iter().step_by(2) {
                 let world = app.world_mut();
                 world.get_mut::<Transform>(e).unwrap().translation += rng.vec3(-1.0, 1.0);
@@ -171,6 +176,13 @@ fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_cal
             seen.push(stats.index);
         }
     }
+    (app, seen)
+}
+
+#[test]
+fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_calm() {
+    // Every mover through the index (no busy movers' list).
+    let (mut app, seen) = automatic_choice_over_movers(BusyMovers::Off, 40);
     assert_eq!(
         seen,
         [IndexChoice::Bvh, IndexChoice::Grid, IndexChoice::Bvh]
@@ -180,6 +192,16 @@ fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_cal
     app.update();
     let stats = app.world().resource::<AccelStats>();
     assert_eq!((stats.index, stats.automatic), (IndexChoice::Octree, None));
+}
+
+#[test]
+fn the_automatic_choice_keeps_the_bvh_when_the_busy_list_takes_every_mover() {
+    // The movers' first frame goes through the index (the list starts the frame after), and
+    // joining the list counts as a move: neither is the index's lasting work, so the grid is
+    // never chosen for an index left with still entities only.
+    let (app, seen) = automatic_choice_over_movers(BusyMovers::Automatic, 40);
+    assert_eq!(seen, [IndexChoice::Bvh]);
+    assert_eq!(app.world().resource::<AccelTrees>().busy_len(), 0);
 }
 
 #[test]

@@ -61,6 +61,7 @@ pub(crate) fn index_switch_due(
 /// next frame's [`choose_index`] acts on its advice. Does nothing while the choice is fixed.
 pub(super) fn advise_index(
     settings: &AccelSettings,
+    trees: &AccelTrees,
     automatic: &mut AutomaticIndex,
     stats: &mut AccelStats,
 ) {
@@ -72,12 +73,28 @@ pub(super) fn advise_index(
     if *automatic.0.advice() != advice {
         automatic.0.set_advice(advice);
     }
-    let kind = automatic.0.observe(IndexWorkload {
-        entries: stats.dynamic_entities,
-        // The index's own movers: the busy movers' moves are no work of the index's.
-        moved: stats.moved - stats.busy_moved,
-        rays: stats.rays_per_frame,
-    });
+    // Why: the frame's moves must be the index's own lasting work. While the busy movers'
+    // list is off but will take the movers next frame (the first frame they move, or the
+    // list coming back on), their moves are about to leave the index; and an entity joining
+    // the list is counted moved once, as it is taken out. Counted as the index's, such
+    // frames made the grid look wanted in a world whose movers all end up in the list,
+    // where the BVH serves the still entities left in the index better (BENCHMARKS.md,
+    // Whole frame).
+    let list_takes_movers_next = !trees.busy_enabled()
+        && settings
+            .busy_movers
+            .wanted(false, stats.moved, stats.rays_per_frame);
+    let kind = if list_takes_movers_next {
+        automatic.0.current()
+    } else {
+        automatic.0.observe(IndexWorkload {
+            entries: stats.dynamic_entities,
+            moved: stats
+                .moved
+                .saturating_sub(stats.busy_moved + trees.busy_joined()),
+            rays: stats.rays_per_frame,
+        })
+    };
     stats.automatic = Some(AutomaticIndexStats {
         recommended: IndexChoice::of_kind(kind),
         moved_share: automatic.0.moved_share(),

@@ -27,7 +27,7 @@ pub(crate) fn maintain_trees(
     if trees.is_changed() {
         publish_tree_stats(&trees, &mut stats);
     }
-    advise_index(&settings, &mut automatic, &mut stats);
+    advise_index(&settings, &trees, &mut automatic, &mut stats);
 }
 
 /// Makes the dynamic index consistent after the sync's edits and lets it spend

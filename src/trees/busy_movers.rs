@@ -121,6 +121,8 @@ pub(super) struct BusyFrame {
     pub(super) stamp: u32,
     /// Entities that may still join or leave the list this frame.
     pub(super) transfers_left: usize,
+    /// Entities that joined the list this frame.
+    pub(super) joined: usize,
     /// Where the next search for quiet entries starts.
     pub(super) sweep_from: usize,
 }
@@ -133,6 +135,13 @@ impl AccelTrees {
         self.busy.enabled = enabled;
         self.busy.stamp = self.busy.stamp.wrapping_add(1);
         self.busy.transfers_left = transfers;
+        self.busy.joined = 0;
+    }
+
+    /// Entities that joined the busy movers this frame: each a move the sync counted, made
+    /// by taking the entity out of the dynamic index.
+    pub(crate) fn busy_joined(&self) -> usize {
+        self.busy.joined
     }
 
     /// Whether movers may join the busy movers this frame.
@@ -188,6 +197,7 @@ impl AccelTrees {
         if let Some(Some(record)) = self.tracked_by_index.get_mut(entity.index_u32() as usize) {
             record.tree = TreeSlot::Busy;
         }
+        self.busy.joined += 1;
         Some(Placed::Moved)
     }
 
