@@ -128,10 +128,14 @@ fn busy_movers_go_back_to_the_index_when_quiet_or_switched_off() {
     }
 }
 
-/// An app choosing its index automatically (deciding within 3 frames), with `busy` movers,
+/// An app choosing its index automatically (deciding within 3 frames), with `busy` movers'
+/// settings,
 /// over 1,000 entities; `moving_for` frames half of them move, then all stand still. Returns
 /// the app and the indexes it went through, in order.
-fn automatic_choice_over_movers(busy: BusyMovers, moving_for: usize) -> (App, Vec<IndexChoice>) {
+fn automatic_choice_over_movers(
+    busy: BusyMoverSettings,
+    moving_for: usize,
+) -> (App, Vec<IndexChoice>) {
     let settings = AccelSettings {
         index: IndexChoice::Automatic,
         automatic: AutomaticIndexSettings {
@@ -140,10 +144,7 @@ fn automatic_choice_over_movers(busy: BusyMovers, moving_for: usize) -> (App, Ve
             frames_between_switches: 0,
             ..default()
         },
-        busy_movers: BusyMoverSettings {
-            mode: busy,
-            ..default()
-        },
+        busy_movers: busy,
         ..default()
     };
     let mut app = App::new();
@@ -182,7 +183,11 @@ fn automatic_choice_over_movers(busy: BusyMovers, moving_for: usize) -> (App, Ve
 #[test]
 fn the_automatic_choice_takes_the_grid_for_many_movers_and_the_bvh_back_when_calm() {
     // Every mover through the index (no busy movers' list).
-    let (mut app, seen) = automatic_choice_over_movers(BusyMovers::Off, 40);
+    let off = BusyMoverSettings {
+        mode: BusyMovers::Off,
+        ..default()
+    };
+    let (mut app, seen) = automatic_choice_over_movers(off, 40);
     assert_eq!(
         seen,
         [IndexChoice::Bvh, IndexChoice::Grid, IndexChoice::Bvh]
@@ -199,9 +204,17 @@ fn the_automatic_choice_keeps_the_bvh_when_the_busy_list_takes_every_mover() {
     // The movers' first frame goes through the index (the list starts the frame after), and
     // joining the list counts as a move: neither is the index's lasting work, so the grid is
     // never chosen for an index left with still entities only.
-    let (app, seen) = automatic_choice_over_movers(BusyMovers::Automatic, 40);
+    let (app, seen) = automatic_choice_over_movers(default(), 40);
     assert_eq!(seen, [IndexChoice::Bvh]);
     assert_eq!(app.world().resource::<AccelTrees>().busy_len(), 0);
+    // Nor while the list fills over several frames, its movers moving through the index
+    // until their turn to join comes.
+    let slow_fill = BusyMoverSettings {
+        transfers_per_frame: 60,
+        ..default()
+    };
+    let (_, seen) = automatic_choice_over_movers(slow_fill, 40);
+    assert_eq!(seen, [IndexChoice::Bvh]);
 }
 
 #[test]

@@ -75,15 +75,16 @@ pub(super) fn advise_index(
     }
     // Why: the frame's moves must be the index's own lasting work. While the busy movers'
     // list is off but will take the movers next frame (the first frame they move, or the
-    // list coming back on), their moves are about to leave the index; and an entity joining
-    // the list is counted moved once, as it is taken out. Counted as the index's, such
-    // frames made the grid look wanted in a world whose movers all end up in the list,
-    // where the BVH serves the still entities left in the index better (BENCHMARKS.md,
-    // Whole frame).
-    let list_takes_movers_next = !trees.busy_enabled()
+    // list coming back on), or is still filling (a frame's transfers spent, the rest of the
+    // movers waiting), their moves are about to leave the index; and an entity joining the
+    // list is counted moved once, as it is taken out. Counted as the index's, such frames
+    // made the grid look wanted in a world whose movers all end up in the list, where the
+    // BVH serves the still entities left in the index better (BENCHMARKS.md, Whole frame).
+    let list_takes_movers_next = (!trees.busy_enabled()
         && settings
             .busy_movers
-            .wanted(false, stats.moved, stats.rays_per_frame);
+            .wanted(false, stats.moved, stats.rays_per_frame))
+        || trees.busy_transfers_spent();
     let kind = if list_takes_movers_next {
         automatic.0.current()
     } else {

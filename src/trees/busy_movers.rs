@@ -144,6 +144,12 @@ impl AccelTrees {
         self.busy.joined
     }
 
+    /// Whether the list took (or gave back) as many entities this frame as a frame may
+    /// move: movers that still wait to join moved through the index meanwhile.
+    pub(crate) fn busy_transfers_spent(&self) -> bool {
+        self.busy.enabled && self.busy.transfers_left == 0
+    }
+
     /// Whether movers may join the busy movers this frame.
     pub(crate) fn busy_enabled(&self) -> bool {
         self.busy.enabled
