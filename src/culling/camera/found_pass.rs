@@ -124,13 +124,11 @@ fn decide_list(
     let parts = pool.map_or(1, |pool| {
         (4 * (pool.thread_num() + 1)).min(list.len() / MIN_PART)
     });
-    let from = pool.map_or(PARALLEL_FROM, |pool| {
-        if pool.thread_num() > 1 {
-            PARALLEL_FROM_SEVERAL_THREADS
-        } else {
-            PARALLEL_FROM
-        }
-    });
+    let from = if pool.is_some_and(|pool| pool.thread_num() > 1) {
+        PARALLEL_FROM_SEVERAL_THREADS
+    } else {
+        PARALLEL_FROM
+    };
     let (Some(pool), true) = (pool, list.len() >= from && parts >= 2) else {
         let tally = decide_part(decider, list, fresh, lists);
         return (tally, false);

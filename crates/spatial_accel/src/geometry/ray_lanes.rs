@@ -1,7 +1,7 @@
 //! A ray laid out lane-wise, for the boxes of a flat list.
 
 use super::{Aabb, Ray, SLAB_WIDENING};
-use glam::{BVec4A, Mat4, Vec4};
+use glam::{BVec4A, Mat4, Vec3A, Vec4};
 
 /// A [`Ray`] with its origin, reciprocal direction and slab choices broadcast to four lanes:
 /// [`RayLanes::hits`] runs [`Ray::hits_aabb`] on four boxes at once, with the same verdict
@@ -27,7 +27,7 @@ impl RayLanes {
     /// `ray`, broadcast to four lanes (its range is given to each test).
     #[inline]
     pub(crate) fn new(ray: &Ray) -> Self {
-        let splat = |v: glam::Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
         let inv_direction = splat(ray.inv_direction);
         Self {
             origin: splat(ray.origin),
@@ -40,25 +40,8 @@ impl RayLanes {
     /// `[t_min, t_max]` would be true; neither bound NaN (a traceable ray's range).
     #[inline]
     pub(crate) fn hits(&self, boxes: [&Aabb; 4], t_min: f32, t_max: f32) -> u32 {
-        // The corners as columns, transposed so that each row holds one axis of all four.
-        let mins = Mat4::from_cols(
-            boxes[0].min.extend(0.0),
-            boxes[1].min.extend(0.0),
-            boxes[2].min.extend(0.0),
-            boxes[3].min.extend(0.0),
-        )
-        .transpose();
-        let maxs = Mat4::from_cols(
-            boxes[0].max.extend(0.0),
-            boxes[1].max.extend(0.0),
-            boxes[2].max.extend(0.0),
-            boxes[3].max.extend(0.0),
-        )
-        .transpose();
-        let (min_rows, max_rows) = (
-            [mins.x_axis, mins.y_axis, mins.z_axis],
-            [maxs.x_axis, maxs.y_axis, maxs.z_axis],
-        );
+        let min_rows = axis_rows(boxes.map(|b| b.min));
+        let max_rows = axis_rows(boxes.map(|b| b.max));
         let mut near = Vec4::NEG_INFINITY;
         let mut far = Vec4::INFINITY;
         for axis in 0..3 {
@@ -81,6 +64,20 @@ impl RayLanes {
     }
 }
 
+/// Four corners laid out by axis: row `a` holds axis `a` of all four (the corners as the
+/// columns of a matrix, transposed).
+#[inline]
+fn axis_rows(corners: [Vec3A; 4]) -> [Vec4; 3] {
+    let rows = Mat4::from_cols(
+        corners[0].extend(0.0),
+        corners[1].extend(0.0),
+        corners[2].extend(0.0),
+        corners[3].extend(0.0),
+    )
+    .transpose();
+    [rows.x_axis, rows.y_axis, rows.z_axis]
+}
+
 #[cfg(test)]
 mod tests {
     //! Lane against scalar, box for box: random and adversarial rays (axis-parallel with zero
@@ -88,7 +85,6 @@ mod tests {
     //! ranges) against random, flat, touching, inverted, infinite and NaN boxes.
     use super::*;
     use accel_testkit::Rng;
-    use glam::Vec3A;
 
     fn random_ray(rng: &mut Rng, boxes: &[Aabb]) -> Ray {
         let mut direction = rng.unit_vector() * rng.log_range(1e-3, 1e3);
