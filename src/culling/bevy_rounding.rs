@@ -14,7 +14,9 @@
 use crate::trees::AccelTrees;
 use bevy::math::{Vec3A, Vec4};
 use bevy::tasks::ComputeTaskPool;
+use core::ops::Range;
 use spatial_accel::query::views::ViewClassification;
+use spatial_accel::query::{CHUNK_LEN, KeyedList};
 use spatial_accel::{Aabb, Containment, Frustum, FrustumLanes};
 
 /// `b` grown by a few ulps of its largest coordinate (and a little more near the origin).
@@ -55,40 +57,34 @@ pub(crate) fn walk_frustum_for_bevy(
     mut visit: impl FnMut(u32, Containment),
 ) {
     let frustum = &FrustumLanes::new(frustum);
-    let busy = match layers {
-        WalkedLayers::All => trees.query().busy_movers().entries(),
-        WalkedLayers::TreesOnly => &[],
+    let busy = trees.query().busy_movers();
+    let chunks = match layers {
+        WalkedLayers::All => busy.chunk_count(),
+        WalkedLayers::TreesOnly => 0,
     };
     let pool = ComputeTaskPool::try_get()
-        .filter(|pool| pool.thread_num() > 1 && busy.len() >= CONCURRENT_BUSY_FROM);
+        .filter(|pool| pool.thread_num() > 1 && chunks * CHUNK_LEN >= CONCURRENT_BUSY_FROM);
     let Some(pool) = pool else {
         walk_trees_for_bevy(trees, frustum, &mut visit);
-        for entry in busy {
-            match classify_for_bevy(frustum, &entry.bounds) {
-                Containment::Outside => {}
-                containment => visit(entry.id, containment),
-            }
-        }
+        busy_movers_for_bevy(busy, 0..chunks, frustum, &mut visit);
         return;
     };
     // Why: the trees' walk and the busy movers' tests are independent, and each is a serial
     // loop; a view that waits for both in turn does not get faster with threads, where Bevy's
     // own loop does (issue 72). The scope's body walks the trees on this thread while the
     // pool's other threads take the movers' parts.
-    let part = busy
-        .len()
+    let part = chunks
         .div_ceil(pool.thread_num() * 4)
-        .max(CONCURRENT_BUSY_FROM / 4);
+        .max(CONCURRENT_BUSY_FROM / 4 / CHUNK_LEN);
     let parts: Vec<Vec<(u32, Containment)>> = pool.scope(|scope| {
-        for chunk in busy.chunks(part) {
+        for from in (0..chunks).step_by(part) {
             scope.spawn(async move {
-                chunk
-                    .iter()
-                    .filter_map(|entry| match classify_for_bevy(frustum, &entry.bounds) {
-                        Containment::Outside => None,
-                        containment => Some((entry.id, containment)),
-                    })
-                    .collect()
+                let mut found = Vec::new();
+                let to = (from + part).min(chunks);
+                busy_movers_for_bevy(busy, from..to, frustum, &mut |id, containment| {
+                    found.push((id, containment));
+                });
+                found
             });
         }
         walk_trees_for_bevy(trees, frustum, &mut visit);
@@ -101,6 +97,33 @@ pub(crate) fn walk_frustum_for_bevy(
 /// From this many busy movers, with more than one compute thread, a view's test of them runs
 /// on the pool beside its walk of the trees.
 const CONCURRENT_BUSY_FROM: usize = 4_096;
+
+/// The busy movers of `chunks` the frustum does not drop, as [`walk_frustum_for_bevy`] gives
+/// them. A chunk whose bounds the frustum drops is skipped whole: the verdict on a box is
+/// monotone (a box inside a dropped box is dropped, in `f32` too), and the growth past
+/// rounding only grows with the box.
+fn busy_movers_for_bevy(
+    busy: &KeyedList,
+    chunks: Range<usize>,
+    frustum: &FrustumLanes,
+    visit: &mut impl FnMut(u32, Containment),
+) {
+    for c in chunks {
+        let chunk = busy.chunk(c);
+        if chunk
+            .bounds
+            .is_some_and(|b| classify_for_bevy(frustum, b) == Containment::Outside)
+        {
+            continue;
+        }
+        for entry in chunk.entries {
+            match classify_for_bevy(frustum, &entry.bounds) {
+                Containment::Outside => {}
+                containment => visit(entry.id, containment),
+            }
+        }
+    }
+}
 
 /// The static tree and the dynamic index: [`walk_frustum_for_bevy`] without the busy movers.
 fn walk_trees_for_bevy(

@@ -193,6 +193,7 @@ pub(crate) fn sync_trees(
         counts.removed += 1;
         rejected.reject(entity, "the dynamic index refused it back");
     }
+    tree_state.tighten_busy_chunk_bounds();
     // The index switch's own edits were marked by its system.
     let index_edits = counts.inserted + counts.removed + counts.updated
         - counts.busy_moved

@@ -264,6 +264,13 @@ impl AccelTrees {
         true
     }
 
+    /// Computes again the bounds of the busy movers' chunks that a move left (see
+    /// [`KeyedList::tighten_chunk_bounds`](spatial_accel::query::KeyedList)), once the
+    /// frame's moves are written: until then queries test each entry of those chunks.
+    pub(crate) fn tighten_busy_chunk_bounds(&mut self) -> usize {
+        self.index.busy_movers_mut().tighten_chunk_bounds()
+    }
+
     /// Puts the busy movers that stopped moving back into the dynamic index, a sweep's worth
     /// a frame (all of them, over frames, once movers may not be busy). `now` gives an
     /// entity's current world box and own space, or `None` when it is gone or its transform

@@ -112,3 +112,46 @@ fn flat_lists_visit_what_the_one_by_one_loop_visits() {
         "{visited} hits: the rays must hit something"
     );
 }
+
+/// The keyed list skips whole chunks whose bounds the ray misses at its current range: with
+/// entries in spatial order (chunks over small regions) and bounds tightened, it must still
+/// visit what the one-by-one loop visits, in its order, also while a closest-hit search
+/// shrinks the range between chunks, and for rays lying on a chunk's planes.
+#[test]
+fn chunk_skipping_keeps_the_visits_of_the_one_by_one_loop() {
+    let mut rng = Rng::new(0xc4a);
+    let (mut visited, mut skippable) = (0, 0);
+    for _ in 0..120 {
+        let n = 200 + rng.below(500);
+        let mut boxes: Vec<Aabb> = (0..n).map(|_| random_box(&mut rng)).collect();
+        boxes.sort_by(|a, b| a.min.x.total_cmp(&b.min.x));
+        let mut keyed = KeyedList::new();
+        for (i, b) in boxes.iter().enumerate() {
+            keyed.insert(i as u32, 0, i as u32, *b, 0).unwrap();
+        }
+        keyed.tighten_chunk_bounds();
+        let planes: Vec<Aabb> = keyed.chunks().filter_map(|c| c.bounds.copied()).collect();
+        for _ in 0..20 {
+            let mut ray = random_ray(&mut rng, &boxes);
+            if rng.below(3) == 0 {
+                // Starting on a chunk's face, along it or through it.
+                let chunk = planes[rng.below(planes.len())];
+                ray.origin.x = [chunk.min.x, chunk.max.x][rng.below(2)];
+                ray = Ray::with_range(ray.origin, ray.direction, ray.t_min, ray.t_max);
+            }
+            skippable += planes.iter().filter(|b| !ray.hits_aabb(b)).count();
+            let expected = visits(|r, v| one_by_one(&boxes, r, v), ray, &boxes);
+            let from_keyed = visits(|r, v| keyed.walk_ray(r, |id, r| v(id, r)), ray, &boxes);
+            assert_eq!(from_keyed, expected, "keyed list, ray {ray:?}");
+            visited += expected[0].len();
+        }
+    }
+    assert!(
+        visited > 1_000,
+        "{visited} hits: the rays must hit something"
+    );
+    assert!(
+        skippable > 10_000,
+        "{skippable} chunks missed: the walk must skip some"
+    );
+}

@@ -10,6 +10,7 @@
 
 use super::dynamic_index::IndexError;
 use super::flat_loops;
+use super::keyed_chunks::{CHUNK_LEN, ChunkBounds};
 use super::views::{ViewClassification, ViewMasks};
 use super::{RayWalk, SpatialQuery};
 use crate::{Aabb, Containment, Frustum, Ray, Sphere};
@@ -36,7 +37,10 @@ pub struct KeyedEntry {
 const ABSENT: u32 = u32::MAX;
 
 /// Boxes in a flat list, each found by the caller's key, every query a test of each box
-/// (the loops of [`BruteForceIndex`](super::BruteForceIndex), so the answers are the same).
+/// (the loops of [`BruteForceIndex`](super::BruteForceIndex), so the answers are the same),
+/// save the runs of [`CHUNK_LEN`] entries a query can skip whole by their bounds (see
+/// [`KeyedChunk`]; call [`tighten_chunk_bounds`](Self::tighten_chunk_bounds) once the
+/// frame's moves are written).
 ///
 /// Keys should be small and dense (the list keeps a 4-byte position per key up to the
 /// largest); ids are what queries report and need not be unique to the list.
@@ -59,6 +63,22 @@ const ABSENT: u32 = u32::MAX;
 pub struct KeyedList {
     position_by_key: Vec<u32>,
     entries: Vec<KeyedEntry>,
+    chunks: ChunkBounds,
+}
+
+/// A run of [`CHUNK_LEN`] consecutive entries of a [`KeyedList`] (fewer at the end), with
+/// bounds containing every one of their boxes while they are current.
+///
+/// A query may skip the run when its bounds fail the query's test, provided the test can
+/// only fail for a box inside a box that fails it (true of the slab, frustum, box and sphere
+/// tests: each is monotone in the box, in floating point too).
+#[derive(Clone, Copy, Debug)]
+pub struct KeyedChunk<'a> {
+    /// Bounds of every entry of the run, or `None` while stale: an entry moved out of them
+    /// since they were computed, and each entry must be tested.
+    pub bounds: Option<&'a Aabb>,
+    /// The run's entries.
+    pub entries: &'a [KeyedEntry],
 }
 
 impl KeyedList {
@@ -124,6 +144,7 @@ impl KeyedList {
             return Err(IndexError::StaleHandle);
         }
         self.position_by_key[k] = self.entries.len() as u32;
+        self.chunks.pushed(self.entries.len(), &bounds);
         self.entries.push(KeyedEntry {
             bounds,
             id,
@@ -146,6 +167,7 @@ impl KeyedList {
         }
         entry.bounds = bounds;
         entry.stamp = stamp;
+        self.chunks.moved(position, &bounds);
         true
     }
 
@@ -157,6 +179,7 @@ impl KeyedList {
             position_by_key: &self.position_by_key,
             entries: self.entries.as_mut_ptr(),
             len: self.entries.len(),
+            chunks: &self.chunks,
             _list: core::marker::PhantomData,
         }
     }
@@ -173,8 +196,44 @@ impl KeyedList {
         self.position_by_key[entry.key as usize] = ABSENT;
         if let Some(moved) = self.entries.get(position) {
             self.position_by_key[moved.key as usize] = position as u32;
+            self.chunks.moved(position, &moved.bounds);
         }
+        self.chunks.truncated(self.entries.len());
         entry
+    }
+
+    /// Number of [`KeyedChunk`]s: the entries' count over [`CHUNK_LEN`], rounded up.
+    pub fn chunk_count(&self) -> usize {
+        self.chunks.len()
+    }
+
+    /// The run of entries number `c` (below [`chunk_count`](Self::chunk_count)) and its
+    /// bounds.
+    #[inline]
+    pub fn chunk(&self, c: usize) -> KeyedChunk<'_> {
+        let from = c * CHUNK_LEN;
+        KeyedChunk {
+            bounds: self.chunks.current(c),
+            entries: &self.entries[from..(from + CHUNK_LEN).min(self.entries.len())],
+        }
+    }
+
+    /// The runs of entries, in storage order.
+    pub fn chunks(&self) -> impl Iterator<Item = KeyedChunk<'_>> {
+        (0..self.chunks.len()).map(|c| self.chunk(c))
+    }
+
+    /// Chunks whose bounds are stale: an entry moved out of them.
+    pub fn stale_chunk_count(&self) -> usize {
+        self.chunks.stale_count()
+    }
+
+    /// Computes the bounds of every stale chunk again (a pass over its entries), with a
+    /// margin of its largest entry so that entries moving about stay inside; returns how
+    /// many it recomputed. Call it after a frame's moves, before the frame's queries: until
+    /// then, a query tests each entry of a stale chunk.
+    pub fn tighten_chunk_bounds(&mut self) -> usize {
+        self.chunks.tighten_stale(&self.entries)
     }
 
     /// Asks for the position of `key`, which [`position`](Self::position) reads first. A hint
@@ -232,11 +291,18 @@ impl KeyedList {
                 self.entries.len()
             ));
         }
-        Ok(())
+        self.chunks.validate(&self.entries)
     }
 
-    fn boxes(&self) -> impl Iterator<Item = (u32, &Aabb)> {
-        self.entries.iter().map(|e| (e.id, &e.bounds))
+    /// The `(id, box)` of every entry, save those of chunks whose current bounds fail
+    /// `keep`, in storage order.
+    fn boxes_kept_by(
+        &self,
+        mut keep: impl FnMut(&Aabb) -> bool,
+    ) -> impl Iterator<Item = (u32, &Aabb)> {
+        self.chunks()
+            .filter(move |c| c.bounds.is_none_or(&mut keep))
+            .flat_map(|c| c.entries.iter().map(|e| (e.id, &e.bounds)))
     }
 }
 
@@ -253,11 +319,13 @@ pub struct ConcurrentMoves<'a> {
     position_by_key: &'a [u32],
     entries: *mut KeyedEntry,
     len: usize,
+    chunks: &'a ChunkBounds,
     _list: core::marker::PhantomData<&'a mut [KeyedEntry]>,
 }
 
 // SAFETY: the view holds the list's exclusive borrow; shared between threads it allows only
-// `set_bounds`, whose contract keeps any two concurrent calls on distinct entries.
+// `set_bounds`, whose contract keeps any two concurrent calls on distinct entries (the chunk
+// bounds they share are only read, their stale flags written atomically).
 unsafe impl Send for ConcurrentMoves<'_> {}
 // SAFETY: as for `Send`.
 unsafe impl Sync for ConcurrentMoves<'_> {}
@@ -292,6 +360,7 @@ impl ConcurrentMoves<'_> {
         }
         entry.bounds = bounds;
         entry.stamp = stamp;
+        self.chunks.moved_shared(p, &bounds);
         Some(true)
     }
 }
@@ -302,7 +371,18 @@ impl RayWalk for KeyedList {
     where
         V: FnMut(u32, &mut Ray) -> ControlFlow<()>,
     {
-        let _ = flat_loops::walk_ray(self.boxes(), ray, visit);
+        let mut visit = visit;
+        for chunk in self.chunks() {
+            // The chunk is tested at the ray's current range: a closest-hit search that
+            // shrank it skips the chunks wholly beyond its best hit.
+            if chunk.bounds.is_some_and(|b| !ray.hits_aabb(b)) {
+                continue;
+            }
+            let boxes = chunk.entries.iter().map(|e| (e.id, &e.bounds));
+            if flat_loops::walk_ray(boxes, ray, &mut visit).is_break() {
+                return;
+            }
+        }
     }
 }
 
@@ -311,28 +391,37 @@ impl SpatialQuery for KeyedList {
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        flat_loops::overlapping_aabb(self.boxes(), aabb, visit);
+        flat_loops::overlapping_aabb(self.boxes_kept_by(|b| b.intersects_aabb(aabb)), aabb, visit);
     }
 
     fn for_each_overlapping_sphere<F>(&self, sphere: &Sphere, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        flat_loops::overlapping_sphere(self.boxes(), sphere, visit);
+        flat_loops::overlapping_sphere(
+            self.boxes_kept_by(|b| sphere.intersects_aabb(b)),
+            sphere,
+            visit,
+        );
     }
 
     fn for_each_containing_point<F>(&self, point: Vec3A, visit: F)
     where
         F: FnMut(u32) -> ControlFlow<()>,
     {
-        flat_loops::containing_point(self.boxes(), point, visit);
+        flat_loops::containing_point(
+            self.boxes_kept_by(|b| b.contains_point(point)),
+            point,
+            visit,
+        );
     }
 
     fn for_each_in_frustum<F>(&self, frustum: &Frustum, visit: F)
     where
         F: FnMut(u32, Containment),
     {
-        flat_loops::in_frustum(self.boxes(), frustum, visit);
+        let kept = self.boxes_kept_by(|b| frustum.classify_aabb(b) != Containment::Outside);
+        flat_loops::in_frustum(kept, frustum, visit);
     }
 
     fn for_each_in_views<C, F>(&self, views: u32, classify: C, visit: F)
@@ -340,7 +429,22 @@ impl SpatialQuery for KeyedList {
         C: FnMut(&Aabb, u32) -> ViewClassification,
         F: FnMut(u32, ViewMasks),
     {
-        flat_loops::in_views(self.boxes(), views, classify, visit);
+        if views == 0 {
+            return;
+        }
+        let (mut classify, mut visit) = (classify, visit);
+        for chunk in self.chunks() {
+            // A chunk every view drops holds only boxes every view drops (`classify` is
+            // monotone, as the trees' walks require of it at their nodes).
+            if chunk
+                .bounds
+                .is_some_and(|b| classify(b, views).outside & views == views)
+            {
+                continue;
+            }
+            let boxes = chunk.entries.iter().map(|e| (e.id, &e.bounds));
+            flat_loops::in_views(boxes, views, &mut classify, &mut visit);
+        }
     }
 
     fn nearest_k<F>(&self, _point: Vec3A, k: usize, distance_squared: F) -> Vec<(u32, f32)>

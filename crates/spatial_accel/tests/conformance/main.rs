@@ -31,7 +31,8 @@ use spatial_accel::dynamic::{DynamicBvh, LayeredIndex, StaticDynamicPair};
 use spatial_accel::kdtree::{KdBuild, KdTree, KdTreeConfig};
 use spatial_accel::mesh::{MeshBvh, SpatialSplits};
 use spatial_accel::query::{
-    AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind, KeyedList,
+    AnyHandle, AnyIndex, BruteForceIndex, DynamicIndex, IndexError, IndexKind, KeyedEntry,
+    KeyedList,
 };
 use spatial_accel::{Aabb, BuildConfig, Bvh, SplitStrategy};
 use toy_tree::ToyTree;
@@ -77,6 +78,91 @@ fn the_keyed_list_of_movers() {
         list.validate().unwrap();
         check_queries(&format!("KeyedList, {scene}"), &list, &entries, seed);
     }
+}
+
+/// The keyed list's chunk bounds through the life of a list of movers: entries in spatial
+/// order (so that chunks cover small regions and queries skip them), then frames of moves
+/// (small wobbles, leaps across the scene, through one thread or several), removals and new
+/// entries, the bounds tightened in some frames and not in others. Every query must still
+/// answer as the oracle over the entries' current boxes: a move out of its chunk that left
+/// the chunk current would lose the entry.
+#[test]
+fn the_keyed_list_through_moves_removals_and_tightening() {
+    let mut skipped = 0;
+    for (scene, mut entries, seed) in scenes() {
+        let mut rng = Rng::new(seed ^ 0xc4c);
+        entries.sort_by(|a, b| a.1.center().x.total_cmp(&b.1.center().x));
+        let extent = entries.iter().fold(Aabb::EMPTY, |acc, (_, b)| acc.union(b));
+        let mut list = KeyedList::new();
+        for (key, &(id, b)) in entries.iter().enumerate() {
+            list.insert(key as u32, 0, id, b, 0).unwrap();
+        }
+        let mut next_key = entries.len() as u32;
+        for frame in 0..4u32 {
+            let moved: Vec<KeyedEntry> = list
+                .entries()
+                .iter()
+                .filter(|_| rng.below(3) == 0)
+                .copied()
+                .collect();
+            let moves: Vec<(u32, Aabb)> = moved
+                .iter()
+                .map(|e| {
+                    let shift = if rng.below(100) == 0 {
+                        // A leap across the scene: out of any chunk's margin.
+                        rng.vec3a(-1.0, 1.0) * extent.extent().max_element().max(1.0)
+                    } else {
+                        rng.vec3a(-0.3, 0.3)
+                    };
+                    (e.key, Aabb::new(e.bounds.min + shift, e.bounds.max + shift))
+                })
+                .collect();
+            if frame % 2 == 0 {
+                for &(key, b) in &moves {
+                    let at = list.position(key, 0).unwrap();
+                    list.set_bounds(at, b, frame);
+                }
+            } else {
+                let concurrent = list.concurrent_moves();
+                std::thread::scope(|scope| {
+                    for part in moves.chunks(moves.len().div_ceil(3).max(1)) {
+                        let concurrent = &concurrent;
+                        scope.spawn(move || {
+                            for &(key, b) in part {
+                                // SAFETY: each key is in one part, once.
+                                unsafe { concurrent.set_bounds(key, 0, b, frame) }.unwrap();
+                            }
+                        });
+                    }
+                });
+            }
+            // Some leave (the last entry moves into each one's place), some join.
+            for _ in 0..list.len().min(2) {
+                let key = list.entries()[rng.below(list.len())].key;
+                list.remove(key, 0).unwrap();
+            }
+            for _ in 0..5 {
+                let id = 10_000 + next_key;
+                let b = Aabb::from_center_half_extents(rng.vec3a(-20.0, 20.0), Vec3A::splat(0.5));
+                list.insert(next_key, 0, id, b, frame).unwrap();
+                next_key += 1;
+            }
+            if frame % 3 != 1 {
+                list.tighten_chunk_bounds();
+                assert_eq!(list.stale_chunk_count(), 0);
+            }
+            list.validate().unwrap();
+            let now: Vec<(u32, Aabb)> = list.entries().iter().map(|e| (e.id, e.bounds)).collect();
+            let name = format!("KeyedList, {scene}, frame {frame}");
+            check_queries(&name, &list, &now, seed + u64::from(frame));
+            let probe = Aabb::from_center_half_extents(extent.center(), extent.extent() * 0.1);
+            skipped += list
+                .chunks()
+                .filter(|c| c.bounds.is_some_and(|b| !b.intersects_aabb(&probe)))
+                .count();
+        }
+    }
+    assert!(skipped > 10, "only {skipped} chunks could be skipped");
 }
 
 #[test]
