@@ -71,6 +71,11 @@ impl ChunkBounds {
             .count()
     }
 
+    /// Bytes held, capacity included.
+    pub(crate) fn memory_bytes(&self) -> usize {
+        self.bounds.capacity() * size_of::<Aabb>() + self.stale.capacity()
+    }
+
     /// An entry was pushed at `position` with box `b`.
     pub(crate) fn pushed(&mut self, position: usize, b: &Aabb) {
         let c = chunk_of(position);

@@ -270,7 +270,9 @@ impl KeyedList {
 
     /// Bytes held, capacity included.
     pub fn memory_bytes(&self) -> usize {
-        self.position_by_key.capacity() * 4 + self.entries.capacity() * size_of::<KeyedEntry>()
+        self.position_by_key.capacity() * 4
+            + self.entries.capacity() * size_of::<KeyedEntry>()
+            + self.chunks.memory_bytes()
     }
 
     /// Checks that every entry is found through its key and every key finds its entry.
