@@ -1,7 +1,9 @@
 //! Culling on a compute pool of four threads against Bevy's own culling on the same pool:
 //! many busy movers (their frustum test split across the pool, beside the trees' walk), a
-//! narrow view on the tree path (its finds decided in parts) and a wide one on the flat pass. A process of its own, so that its pool has the
-//! threads it asks for.
+//! narrow view on the tree path (its finds decided in parts) and a wide one on the flat pass;
+//! the movers scattered, or in rows in spawn order (narrow runs of the busy list, which the
+//! narrow view skips) with some leaping across the world and back. A process of its own, so
+//! that its pool has the threads it asks for.
 
 use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::{VisibilityClass, VisibleEntities};
@@ -22,11 +24,21 @@ struct Drawable;
 #[derive(Component)]
 struct ViewIndex(usize);
 
-/// A box wobbling round `home` every frame.
+/// A box wobbling round `home` every frame; a leaper is across the world every third frame.
 #[derive(Component)]
 struct Wobble {
     home: Vec3,
     phase: f32,
+    leaps: bool,
+}
+
+/// Where the movers are.
+#[derive(Clone, Copy, PartialEq)]
+enum Layout {
+    /// At random.
+    Scattered,
+    /// On a square grid in spawn order, row by row: the busy movers' runs are narrow.
+    Rows,
 }
 
 #[derive(Resource, Default)]
@@ -36,7 +48,13 @@ fn wobble(mut frame: ResMut<Frame>, mut boxes: Query<(&Wobble, &mut Transform)>)
     frame.0 += 1.0;
     for (w, mut t) in &mut boxes {
         let a = frame.0 * 0.3 + w.phase;
-        t.translation = w.home + Vec3::new(a.sin(), 0.0, a.cos()) * 2.0;
+        // Out of its run's bounds and back: the run goes stale, then tight again.
+        let away = w.leaps && (frame.0 as u32 + (w.phase * 10.0) as u32).is_multiple_of(3);
+        t.translation = if away {
+            Vec3::new(-w.home.x, 60.0, -w.home.z)
+        } else {
+            w.home + Vec3::new(a.sin(), 0.0, a.cos()) * 2.0
+        };
     }
 }
 
@@ -63,7 +81,7 @@ fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
     Frustum(ViewFrustum::from_clip_from_world(&(proj * view)))
 }
 
-fn populate(app: &mut App) -> Vec<Entity> {
+fn populate(app: &mut App, layout: Layout) -> Vec<Entity> {
     let mut rng = Rng::from_state(5);
     let mut class = VisibilityClass::default();
     class.push(TypeId::of::<Drawable>());
@@ -71,7 +89,14 @@ fn populate(app: &mut App) -> Vec<Entity> {
     let hidden = world.spawn((Transform::default(), Visibility::Hidden)).id();
     let entities = (0..24_000)
         .map(|i| {
-            let home = rng.vec3(-300.0, 300.0);
+            let home = match layout {
+                Layout::Scattered => rng.vec3(-300.0, 300.0),
+                Layout::Rows => Vec3::new(
+                    (i % 160) as f32 * 4.0 - 320.0,
+                    0.0,
+                    (i / 160) as f32 * 4.0 - 300.0,
+                ),
+            };
             let half = Vec3::splat(rng.range(0.2, 2.0));
             let mut e = world.spawn((
                 Transform::from_translation(home),
@@ -91,23 +116,27 @@ fn populate(app: &mut App) -> Vec<Entity> {
                     e.insert(Wobble {
                         home,
                         phase: rng.range(0.0, 6.0),
+                        leaps: layout == Layout::Rows && i % 400 == 7,
                     });
                 }
             }
             e.id()
         })
         .collect();
-    // A narrow view (the tree path) and one that sees most of the world (the flat pass).
-    world.spawn((
-        Camera::default(),
-        ViewIndex(0),
-        frustum(Vec3::new(0.0, 0.0, 320.0), Vec3::ZERO, 0.3),
-    ));
-    world.spawn((
-        Camera::default(),
-        ViewIndex(1),
-        frustum(Vec3::new(0.0, 0.0, 600.0), Vec3::ZERO, 1.6),
-    ));
+    // A narrow view (the tree path) and one that sees most of the world (the flat pass);
+    // over the rows, both look down on them.
+    let (narrow, wide) = match layout {
+        Layout::Scattered => (
+            frustum(Vec3::new(0.0, 0.0, 320.0), Vec3::ZERO, 0.3),
+            frustum(Vec3::new(0.0, 0.0, 600.0), Vec3::ZERO, 1.6),
+        ),
+        Layout::Rows => (
+            frustum(Vec3::new(40.0, 400.0, 1.0), Vec3::new(40.0, 0.0, 0.0), 0.3),
+            frustum(Vec3::new(0.0, 500.0, 1.0), Vec3::ZERO, 1.6),
+        ),
+    };
+    world.spawn((Camera::default(), ViewIndex(0), narrow));
+    world.spawn((Camera::default(), ViewIndex(1), wide));
     entities
 }
 
@@ -133,14 +162,15 @@ fn visible_sets(app: &mut App, entities: &[Entity]) -> Vec<Vec<usize>> {
         .collect()
 }
 
-#[test]
-fn busy_movers_culled_on_four_threads_equal_bevys() {
+/// Culls `layout` in both apps over eight frames, checking every frame's visible sets, and
+/// returns the accel app.
+fn check(layout: Layout) -> App {
     // Made before the apps, which then keep it (Bevy makes its pools once per process).
     let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
     assert_eq!(pool.thread_num(), 4);
     let (mut bevy_app, mut accel_app) = (app(false), app(true));
-    let a = populate(&mut bevy_app);
-    let b = populate(&mut accel_app);
+    let a = populate(&mut bevy_app, layout);
+    let b = populate(&mut accel_app, layout);
     let mut most_busy = 0;
     let mut flat_views = 0;
     let mut decided_in_parts = 0;
@@ -168,5 +198,38 @@ fn busy_movers_culled_on_four_threads_equal_bevys() {
     assert!(
         decided_in_parts > 0,
         "the narrow view's finds were never decided in parts"
+    );
+    accel_app
+}
+
+#[test]
+fn busy_movers_culled_on_four_threads_equal_bevys() {
+    let _ = check(Layout::Scattered);
+}
+
+/// Movers in rows give the busy movers' list narrow runs, which the narrow view skips whole;
+/// the leapers make runs stale and tight again from frame to frame.
+#[test]
+fn busy_movers_in_narrow_runs_that_leap_culled_as_bevy_culls_them() {
+    let mut app = check(Layout::Rows);
+    let world = app.world_mut();
+    let narrow = world
+        .query::<(&ViewIndex, &Frustum)>()
+        .iter(world)
+        .find(|(i, _)| i.0 == 0)
+        .map(|(_, f)| spatial_accel::Frustum::from_planes(f.half_spaces.map(|h| h.normal_d())))
+        .unwrap();
+    let busy = world.resource::<AccelTrees>().query().busy_movers();
+    let skipped = busy
+        .chunks()
+        .filter(|c| {
+            c.bounds
+                .is_some_and(|b| narrow.classify_aabb(b) == spatial_accel::Containment::Outside)
+        })
+        .count();
+    assert!(
+        skipped * 2 > busy.chunk_count(),
+        "the narrow view skips {skipped} of {} runs",
+        busy.chunk_count()
     );
 }

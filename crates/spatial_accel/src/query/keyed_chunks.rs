@@ -21,6 +21,10 @@ use glam::Vec3A;
 /// saves that much reading for one box test.
 pub const CHUNK_LEN: usize = 64;
 
+/// Each call of [`ChunkBounds::tighten_stale`] also recomputes this share of the chunks,
+/// stale or not: a loose chunk is tight again within this many calls.
+const SWEEP_SHARE: usize = 16;
+
 /// The chunk an entry at `position` belongs to.
 #[inline]
 pub(crate) fn chunk_of(position: usize) -> usize {
@@ -34,6 +38,8 @@ pub(crate) fn chunk_of(position: usize) -> usize {
 pub(crate) struct ChunkBounds {
     bounds: Vec<Aabb>,
     stale: Vec<AtomicBool>,
+    /// The next chunk the sweep of [`Self::tighten_stale`] recomputes.
+    sweep_from: usize,
 }
 
 impl Clone for ChunkBounds {
@@ -45,6 +51,7 @@ impl Clone for ChunkBounds {
                 .iter()
                 .map(|s| AtomicBool::new(s.load(Ordering::Relaxed)))
                 .collect(),
+            sweep_from: self.sweep_from,
         }
     }
 }
@@ -116,11 +123,28 @@ impl ChunkBounds {
     }
 
     /// Computes the bounds of every stale chunk again from `entries` (the list's), with a
-    /// margin of the chunk's largest entry; returns how many chunks it recomputed.
+    /// margin of the chunk's largest entry, and those of the next [`SWEEP_SHARE`]th of the
+    /// chunks, going round; returns how many chunks it recomputed.
+    ///
+    /// Why the sweep: a chunk only goes stale when an entry leaves its bounds, never when
+    /// they grew loose (an entry that wandered far and came back, one that left the list),
+    /// and a loose chunk is one a query can no longer skip.
     pub(crate) fn tighten_stale(&mut self, entries: &[KeyedEntry]) -> usize {
+        let chunks = self.bounds.len();
+        if chunks == 0 {
+            return 0;
+        }
+        let sweep = chunks.div_ceil(SWEEP_SHARE);
+        let from = if self.sweep_from < chunks {
+            self.sweep_from
+        } else {
+            0
+        };
+        self.sweep_from = from + sweep;
+        let swept = from..from + sweep;
         let mut tightened = 0;
         for (c, stale) in self.stale.iter_mut().enumerate() {
-            if !*stale.get_mut() {
+            if !*stale.get_mut() && !swept.contains(&c) {
                 continue;
             }
             let run = &entries[c * CHUNK_LEN..((c + 1) * CHUNK_LEN).min(entries.len())];
@@ -167,4 +191,52 @@ fn with_margin(run: &[KeyedEntry]) -> Aabb {
     // A margin too large for `f32` would make the bounds infinite, which every test still
     // reads as containing; a finite union is kept finite for the validator's sake.
     if grown.is_finite() { grown } else { union }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entry(key: u32, x: f32) -> KeyedEntry {
+        KeyedEntry {
+            bounds: Aabb::new(Vec3A::new(x, 0.0, 0.0), Vec3A::new(x + 1.0, 1.0, 1.0)),
+            id: key,
+            key,
+            tag: 0,
+            stamp: 0,
+        }
+    }
+
+    /// An entry that leaves its chunk's bounds and comes back leaves the chunk loose, never
+    /// stale: the sweep makes it tight again within [`SWEEP_SHARE`] calls.
+    #[test]
+    fn a_loose_chunk_is_swept_tight_again() {
+        let at = 3 * CHUNK_LEN + 5;
+        let mut entries: Vec<KeyedEntry> = (0..40 * CHUNK_LEN as u32)
+            .map(|k| entry(k, k as f32 * 2.0))
+            .collect();
+        let mut chunks = ChunkBounds::default();
+        for (p, e) in entries.iter().enumerate() {
+            chunks.pushed(p, &e.bounds);
+        }
+        chunks.tighten_stale(&entries);
+        let narrow = chunks.current(3).unwrap().extent().x;
+        assert!(narrow < 200.0, "{narrow}");
+        // Away, far along x: the chunk goes stale, and is recomputed around it.
+        entries[at] = entry(at as u32, 1e6);
+        chunks.moved(at, &entries[at].bounds);
+        assert!(chunks.current(3).is_none());
+        chunks.tighten_stale(&entries);
+        assert!(chunks.current(3).unwrap().extent().x > 1e5);
+        // Back home: inside the loose bounds, so nothing marks the chunk.
+        entries[at] = entry(at as u32, at as f32 * 2.0);
+        chunks.moved(at, &entries[at].bounds);
+        assert!(chunks.current(3).is_some());
+        for _ in 0..SWEEP_SHARE {
+            chunks.tighten_stale(&entries);
+            chunks.validate(&entries).unwrap();
+        }
+        let after = chunks.current(3).unwrap().extent().x;
+        assert!(after < 200.0, "still {after} wide");
+    }
 }
