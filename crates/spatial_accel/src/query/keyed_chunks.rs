@@ -10,7 +10,9 @@
 //! run's bounds marks the run stale (one flag store, safe from several threads), and a stale
 //! run is tested entry by entry until [`ChunkBounds::tighten_stale`] computes its bounds
 //! again. Freshly computed bounds leave a margin of the run's largest entry, so objects that
-//! move about a place (units wobbling, idling) stay inside for many frames.
+//! move about a place (units wobbling, idling) stay inside for many frames; and each call
+//! also recomputes a sixteenth of the runs, going round, so bounds left loose by an object
+//! that wandered off and came back tighten again.
 
 use super::KeyedEntry;
 use crate::Aabb;
