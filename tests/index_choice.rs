@@ -2,18 +2,13 @@
 //! workload it sees, and a switch filled off the frame, the trees checked against the ECS
 //! after every frame.
 
-use bevy::camera::primitives::Aabb;
 use bevy::prelude::*;
 use bevy_accel::TreeSlot;
 use bevy_accel::prelude::*;
 
 mod common;
 use accel_testkit::Rng;
-use common::check_consistency;
-
-fn unit_aabb() -> Aabb {
-    Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
-}
+use common::{check_consistency, trees_app_with_cubes, unit_aabb};
 
 /// An app choosing its index automatically (deciding within 3 frames), with `busy` movers'
 /// settings, over 1,000 entities; `moving_for` frames half of them move, then all stand
@@ -33,15 +28,7 @@ fn automatic_choice_over_movers(
         busy_movers: busy,
         ..default()
     };
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
-    let mut rng = Rng::from_state(11);
-    let entities: Vec<Entity> = (0..1_000)
-        .map(|_| {
-            let t = Transform::from_translation(rng.vec3(-100.0, 100.0));
-            app.world_mut().spawn((t, unit_aabb())).id()
-        })
-        .collect();
+    let (mut app, entities, mut rng) = trees_app_with_cubes(settings, 1_000, 11);
     let mut seen = Vec::new();
     // The choice reads each frame's figures at the end of its maintenance; the next frame
     // switches to what it recommends.

@@ -1,14 +1,13 @@
 //! The trees follow the entities: spawns, motion, despawns, reparenting and bad transforms,
 //! frame after frame, checked against the ECS after every frame.
 
-use bevy::camera::primitives::Aabb;
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
 use bevy_accel::spatial_accel::SpatialQuery;
 
 mod common;
 use accel_testkit::Rng;
-use common::{bvh, check_consistency};
+use common::{bvh, check_consistency, trees_app_with_cubes, unit_aabb};
 
 fn app() -> App {
     let mut app = App::new();
@@ -38,10 +37,6 @@ fn app_watching_statics(
     };
     app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
     app
-}
-
-fn unit_aabb() -> Aabb {
-    Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
 }
 
 #[test]
@@ -82,15 +77,7 @@ fn busy_movers_go_back_to_the_index_when_quiet_or_switched_off() {
         },
         ..default()
     };
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
-    let mut rng = Rng::from_state(5);
-    let entities: Vec<Entity> = (0..400)
-        .map(|_| {
-            let t = Transform::from_translation(rng.vec3(-100.0, 100.0));
-            app.world_mut().spawn((t, unit_aabb())).id()
-        })
-        .collect();
+    let (mut app, entities, mut rng) = trees_app_with_cubes(settings, 400, 5);
     let busy_len = |app: &App| app.world().resource::<AccelTrees>().busy_len();
     let step = |app: &mut App, movers: &[Entity], rng: &mut Rng| {
         for &e in movers {

@@ -34,6 +34,31 @@ pub fn app() -> App {
     app
 }
 
+/// A unit cube's `Aabb`, centred on the entity.
+pub fn unit_aabb() -> Aabb {
+    Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5))
+}
+
+/// An app with the trees only (`MinimalPlugins`, `TransformPlugin`, `AccelPlugin` with
+/// `settings`) and `n` unit cubes scattered over a 200-unit cube from `seed`, in spawn order;
+/// with the generator, for the test's next draws.
+pub fn trees_app_with_cubes(
+    settings: AccelSettings,
+    n: usize,
+    seed: u64,
+) -> (App, Vec<Entity>, accel_testkit::Rng) {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, AccelPlugin { settings }));
+    let mut rng = accel_testkit::Rng::from_state(seed);
+    let entities = (0..n)
+        .map(|_| {
+            let t = Transform::from_translation(rng.vec3(-100.0, 100.0));
+            app.world_mut().spawn((t, unit_aabb())).id()
+        })
+        .collect();
+    (app, entities, rng)
+}
+
 /// The tracked entities whose exact world box passes `keep`, sorted: the brute force that
 /// every overlap query is compared with.
 pub fn entities_whose_box(
