@@ -98,16 +98,10 @@ impl ChunkBounds {
         }
     }
 
-    /// The entry at `position` now has box `b` (written through an exclusive borrow).
+    /// The entry at `position` now has box `b`: at most a flag store, which any number of
+    /// threads may make at once (the list's concurrent moves call it from each).
     #[inline]
-    pub(crate) fn moved(&mut self, position: usize, b: &Aabb) {
-        self.moved_shared(position, b);
-    }
-
-    /// The entry at `position` now has box `b`, written from one of several threads: at
-    /// most a flag store, which any number of threads may make at once.
-    #[inline]
-    pub(crate) fn moved_shared(&self, position: usize, b: &Aabb) {
+    pub(crate) fn moved(&self, position: usize, b: &Aabb) {
         let c = chunk_of(position);
         // Read before writing: a store, even of the same value, takes the flag's cache line
         // from the other threads writing flags nearby.

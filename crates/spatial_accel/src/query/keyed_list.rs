@@ -362,7 +362,7 @@ impl ConcurrentMoves<'_> {
         }
         entry.bounds = bounds;
         entry.stamp = stamp;
-        self.chunks.moved_shared(p, &bounds);
+        self.chunks.moved(p, &bounds);
         Some(true)
     }
 }
