@@ -41,8 +41,11 @@ type MovedQuery<'w, 's, StaticFilter> = Query<
 /// start costs more than it saves.
 const PARALLEL_BUSY_FROM: usize = 8_192;
 
-/// One thread's share of a parallel pass over the moved entities.
+/// One thread's share of a parallel pass over the moved entities. Aligned to two cache lines
+/// so that the threads' shares, which `Parallel` keeps side by side, never share one: the
+/// count is bumped per mover (see `FlatTally`).
 #[derive(Default)]
+#[repr(align(128))]
 pub(crate) struct MovesBatch {
     /// Busy movers whose box changed.
     busy_moved: usize,

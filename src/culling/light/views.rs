@@ -132,7 +132,14 @@ impl CasterTest<'_> {
 type CascadeScratch = (Vec<[Vec4; 6]>, Vec<Vec<Entity>>);
 
 /// Per-thread lists of the flat pass, and how many casters each thread placed.
-type ThreadLists = Parallel<(Vec<Vec<Entity>>, usize)>;
+type ThreadLists = Parallel<ThreadShare>;
+
+/// One thread's lists and count. Aligned to two cache lines so that the threads' shares,
+/// which `Parallel` keeps side by side, never share one: the count is bumped per caster
+/// (false sharing; see the camera pass's `FlatTally`).
+#[derive(Default)]
+#[repr(align(128))]
+pub(crate) struct ThreadShare(Vec<Vec<Entity>>, usize);
 
 /// Decides one light view into `lists` (sorted, as Bevy leaves them): its candidates one by
 /// one (with their walk's masks), or, when [`LightCandidates::flat`], every caster in a
@@ -163,7 +170,7 @@ fn decide_lists(
                 if settled == Some((0, 0)) || !filter.admits(entity, inherited, layers, range) {
                     return;
                 }
-                let (parts, placed) = &mut **local;
+                let ThreadShare(parts, placed) = &mut **local;
                 if parts.len() < n {
                     parts.resize_with(n, Vec::new);
                 }
@@ -180,7 +187,7 @@ fn decide_lists(
             },
         );
         let mut found = 0;
-        for (parts, placed) in threads.iter_mut() {
+        for ThreadShare(parts, placed) in threads.iter_mut() {
             for (list, part) in lists.iter_mut().zip(parts.iter_mut()) {
                 list.append(part);
             }
