@@ -80,6 +80,7 @@ pub mod panel;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod plugin;
+mod pool_batches;
 #[cfg(feature = "preview")]
 pub mod preview;
 #[cfg(feature = "selection")]

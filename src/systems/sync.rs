@@ -10,6 +10,7 @@ use super::choose_index::IndexSwitchReport;
 use super::membership::{MembershipQuery, PendingMembership, RejectedEntities};
 use super::prefetched::for_each_prefetched_in_two_stages;
 use crate::components::{AccelIgnore, AccelStatic, AccelTracked};
+use crate::pool_batches::uneven_work_batches;
 use crate::settings::AccelSettings;
 use crate::stats::AccelStats;
 use crate::trees::{AccelTrees, Placed, placement};
@@ -239,6 +240,7 @@ fn move_busy_movers_in_parallel(
     let batch_of_thread = || batches_ref.borrow_local_mut();
     moved
         .par_iter()
+        .batching_strategy(uneven_work_batches())
         .for_each_init(batch_of_thread, |batch, (entity, aabb, gt, marked)| {
             if require_marker && !marked {
                 return;

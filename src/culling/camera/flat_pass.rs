@@ -4,6 +4,7 @@
 use super::tree_verdicts::TreeVerdicts;
 use crate::culling::bevy_rules::{ViewFilter, bevy_frustum_test};
 use crate::culling::class_lists::{ClassLists, sort_visible};
+use crate::pool_batches::uneven_work_batches;
 use bevy::camera::primitives::{Aabb, Frustum, Sphere};
 use bevy::camera::visibility::{
     NoCpuCulling, NoFrustumCulling, RenderLayers, SetViewVisibility, VisibilityClass,
@@ -72,13 +73,16 @@ pub(crate) fn flat_pass(
     no_cpu_culling_view: bool,
     verdicts: Option<TreeVerdicts<'_>>,
 ) -> (usize, usize, usize) {
-    candidates.par_iter_mut().for_each_init(
-        || tallies.borrow_local_mut(),
-        |tally, item| {
-            let known = |entity| verdicts.and_then(|v| v.frustum_test(entity));
-            decide_like_bevy(item, filter, frustum, no_cpu_culling_view, known, tally);
-        },
-    );
+    candidates
+        .par_iter_mut()
+        .batching_strategy(uneven_work_batches())
+        .for_each_init(
+            || tallies.borrow_local_mut(),
+            |tally, item| {
+                let known = |entity| verdicts.and_then(|v| v.frustum_test(entity));
+                decide_like_bevy(item, filter, frustum, no_cpu_culling_view, known, tally);
+            },
+        );
     let (mut visible, mut tested, mut accepted) = (0, 0, 0);
     for tally in tallies.iter_mut() {
         let (v, t, a) = tally.flush_into(visible_entities);
