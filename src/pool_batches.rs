@@ -12,8 +12,8 @@ const BATCHES_PER_THREAD: usize = 4;
 /// The batching of a `par_iter` whose work per entity differs from table to table: the
 /// camera's flat culling pass (an entity the trees settle costs a bit read, one they cannot a
 /// frustum test) and the parallel sync (a mover costs its world box, a still entity its
-/// change tick). The light views' flat pass keeps Bevy's default, where it measured level or
-/// better (docs/experiments.md, Whole frame at several thread counts).
+/// change tick). The light views' flat pass keeps Bevy's default: these batches measured
+/// slower there (docs/experiments.md, Whole frame at several thread counts).
 ///
 /// Why not Bevy's default: it makes one batch per thread, sized by the largest table, so a
 /// smaller table is a single batch and goes whole to one thread. Costly entities often have
