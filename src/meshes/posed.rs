@@ -197,7 +197,7 @@ pub(crate) struct PosedEntity {
 
 impl PosedEntity {
     /// The nearest hit of `ray` on the pose last read, and the hit triangle's posed corners:
-    /// only the segments the ray reaches are skinned (see [`SkinSegments`]), which is what a
+    /// only the pieces the ray reaches are skinned (see [`SkinSegments`]), which is what a
     /// pose met by one ray, a pointer's, should cost. `None` for a miss or a pose that cannot
     /// be skinned.
     pub(crate) fn cast_ray(
@@ -275,10 +275,10 @@ pub(crate) struct PosedState {
     /// Entities whose pose could not be read, so they are tested unposed: warned about once
     /// each.
     warned: EntityHashMap<()>,
-    /// Posed entities skinned for rays (their reached segments, or their whole tree
+    /// Posed entities skinned for rays (their reached pieces, or their whole tree
     /// refit) since the stats last took the count.
     pub(crate) refits: usize,
-    /// A segment's posed vertices, between rays.
+    /// A piece's posed vertices, between rays.
     pub(crate) scratch: Vec<Vec3>,
     /// The joints' global matrices of the pose being read, between reads.
     globals: Vec<Mat4>,

@@ -158,7 +158,7 @@ pub(crate) fn watch_posed_meshes(
 }
 
 /// The nearest hit on a posed entity's triangles, with the entry distance into its posed
-/// box; only the mesh's segments the ray reaches are skinned. In world space:
+/// box; only the pieces of the mesh the ray reaches are skinned. In world space:
 /// the normal is the posed triangle's unit geometric normal (the vertex normals are the
 /// bind pose's), the triangle its posed corners.
 pub(super) fn posed_hit(

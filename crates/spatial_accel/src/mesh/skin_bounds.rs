@@ -41,9 +41,11 @@ use glam::{Mat3A, Mat4, Vec3, Vec3A};
 /// so that an `f32` posed vertex lies inside too.
 #[derive(Clone, Debug)]
 pub struct SkinBounds {
-    /// Per joint, the box of the bind positions of the vertices that give it a non-zero
-    /// weight (empty for a joint that moves no vertex), and the first of those vertices.
-    joints: Vec<(Aabb, usize)>,
+    /// Per joint that moves some vertex, in joint order: the joint, the box of the bind
+    /// positions of the vertices that give it a non-zero weight, and the first of those
+    /// vertices. Only those joints: a piece of a mesh (see `SkinSegments`) names a few joints
+    /// of many, and its bound reads only these entries.
+    joints: Vec<(u16, Aabb, usize)>,
     /// Per morph target, its largest displacement on each axis, in absolute value.
     morph_reach: Vec<Vec3A>,
     vertex_count: usize,
@@ -74,7 +76,7 @@ impl SkinBounds {
             target_count.saturating_mul(n),
             morph_displacements.len(),
         )?;
-        let mut joints: Vec<(Aabb, usize)> = Vec::new();
+        let mut by_joint: Vec<(Aabb, usize)> = Vec::new();
         let (mut positive, mut negative) = ([f32::INFINITY, 0.0], [f32::INFINITY, 0.0]);
         let mut finite = true;
         for (vertex, ((p, indices), weights)) in vertices
@@ -90,10 +92,10 @@ impl SkinBounds {
                     continue;
                 }
                 let joint = usize::from(joint);
-                if joint >= joints.len() {
-                    joints.resize(joint + 1, (Aabb::EMPTY, usize::MAX));
+                if joint >= by_joint.len() {
+                    by_joint.resize(joint + 1, (Aabb::EMPTY, usize::MAX));
                 }
-                let (bind, first) = &mut joints[joint];
+                let (bind, first) = &mut by_joint[joint];
                 *bind = bind.grow(*p);
                 *first = (*first).min(vertex);
                 if w > 0.0 {
@@ -108,6 +110,13 @@ impl SkinBounds {
             positive = [positive[0].min(pos), positive[1].max(pos)];
             negative = [negative[0].min(neg), negative[1].max(neg)];
         }
+        // `by_joint` is indexed by `u16` joint numbers, so each index fits one.
+        let joints = by_joint
+            .into_iter()
+            .enumerate()
+            .filter(|(_, (bind, _))| !bind.is_empty())
+            .map(|(joint, (bind, first))| (joint as u16, bind, first))
+            .collect();
         let morph_reach = morph_displacements
             .chunks_exact(n.max(1))
             .map(|target| {
@@ -163,17 +172,15 @@ impl SkinBounds {
             .fold(Vec3A::ZERO, |reach, (w, d)| reach + w.abs() * *d);
         let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         let mut magnitude = Vec3A::ZERO;
-        for (joint, &(bind, vertex)) in self.joints.iter().enumerate() {
-            if bind.is_empty() {
-                continue;
-            }
-            let m = joint_matrices
-                .get(joint)
-                .ok_or(SkinningError::JointOutOfRange {
-                    vertex,
-                    joint: joint as u16,
-                    joint_count: joint_matrices.len(),
-                })?;
+        for &(joint, bind, vertex) in &self.joints {
+            let m =
+                joint_matrices
+                    .get(usize::from(joint))
+                    .ok_or(SkinningError::JointOutOfRange {
+                        vertex,
+                        joint,
+                        joint_count: joint_matrices.len(),
+                    })?;
             if !m.is_finite() {
                 // `min` and `max` would drop a NaN corner and bound a pose that fails.
                 return Err(SkinningError::NonFiniteBound);

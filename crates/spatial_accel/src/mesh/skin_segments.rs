@@ -1,31 +1,49 @@
-//! A skinned mesh cut into segments by joint, for rays that meet each pose once.
+//! A skinned mesh cut into segments by joint, and each segment into pieces, for rays that
+//! meet each pose once.
 //!
 //! An animated character changes pose every frame, and a pointer casts one ray a frame: a
 //! posed tree ([`PosedMeshBvh`](super::PosedMeshBvh)) is then skinned whole and refit for a
 //! single ray, which costs more than testing the bind pose's every triangle. Here each
 //! triangle belongs to the segment of the joint that weighs most on its first corner (a
-//! forearm, a shin); each segment's box comes from its joints' matrices alone
-//! ([`SkinBounds`]), and a ray skins and tests only the segments whose box it meets, nearest
-//! first, stopping once the next box lies beyond the nearest hit. A ray that reaches a
-//! character's arm skins the arm, not the character.
+//! forearm, a shin), and each segment is cut, by halving its triangles along the longest
+//! axis of their bind-pose centres, into pieces of at most [`PIECE_TRIANGLES`]. Every box
+//! comes from its joints' matrices alone ([`SkinBounds`]). A ray takes the boxes of the
+//! segments it meets, then of their pieces, and skins and tests only the pieces whose box it
+//! meets, nearest first, stopping once the next box lies beyond the nearest hit. A ray that
+//! reaches a character's arm skins the part of the arm around it, not the character.
 
 use super::hit::MeshHit;
 use super::skin_bounds::SkinBounds;
 use super::skinning::{MorphTargets, SkinnedVertices, SkinningError, check_length, skin_positions};
 use crate::geometry::{Backfaces, Ray, Triangle};
 use glam::{Mat4, Vec3, Vec3A};
+use std::ops::Range;
 
-/// The triangles of one joint's segment, with their own copy of the vertices they use.
+/// The most triangles a piece holds. Why pieces at all: a joint's segment of a 5k-triangle
+/// character holds hundreds of triangles, and a ray that reaches its box skinned and tested
+/// them all; a piece's box costs a few joints' box transforms, so a ray pays for the boxes of
+/// the segments it reaches and for the few pieces inside them it meets (BENCHMARKS.md,
+/// Skinned picking).
+const PIECE_TRIANGLES: usize = 32;
+
+/// Some triangles of one segment, with their own copy of the vertices they use.
 #[derive(Clone, Debug)]
-struct Segment {
+struct Piece {
     positions: Vec<Vec3>,
     joint_indices: Vec<[u16; 4]>,
     joint_weights: Vec<[f32; 4]>,
-    /// Morph displacements of the segment's vertices, target-major.
+    /// Morph displacements of the piece's vertices, target-major.
     morph: Vec<Vec3>,
-    /// Each triangle: its index in the mesh, and its corners among the segment's vertices.
+    /// Each triangle: its index in the mesh, and its corners among the piece's vertices.
     triangles: Vec<(u32, [u32; 3])>,
     bounds: SkinBounds,
+}
+
+/// One joint's triangles: the box of all of them, and the pieces they were cut into.
+#[derive(Clone, Debug)]
+struct Segment {
+    bounds: SkinBounds,
+    pieces: Range<usize>,
 }
 
 /// A skinned mesh's triangles by segment, for [`SkinSegments::cast_ray`].
@@ -50,6 +68,7 @@ struct Segment {
 #[derive(Clone, Debug)]
 pub struct SkinSegments {
     segments: Vec<Segment>,
+    pieces: Vec<Piece>,
     vertex_count: usize,
     target_count: usize,
 }
@@ -92,76 +111,57 @@ impl SkinSegments {
                 .push(t);
         }
         let mut segments = Vec::with_capacity(by_joint.len());
-        let mut local = vec![u32::MAX; n];
-        for triangles in by_joint.into_values() {
-            let mut used: Vec<u32> = Vec::new();
-            let mut corners = Vec::with_capacity(triangles.len());
-            for &t in &triangles {
-                let tri = &indices[3 * t as usize..3 * t as usize + 3];
-                corners.push((
-                    t,
-                    [0, 1, 2].map(|k| {
-                        let v = tri[k] as usize;
-                        if local[v] == u32::MAX {
-                            local[v] = used.len() as u32;
-                            used.push(v as u32);
-                        }
-                        local[v]
-                    }),
-                ));
-            }
-            let pick = |v: &u32| *v as usize;
-            let positions: Vec<Vec3> = used.iter().map(|v| vertices.positions[pick(v)]).collect();
-            let joint_indices: Vec<[u16; 4]> = used
-                .iter()
-                .map(|v| vertices.joint_indices[pick(v)])
-                .collect();
-            let joint_weights: Vec<[f32; 4]> = used
-                .iter()
-                .map(|v| vertices.joint_weights[pick(v)])
-                .collect();
-            let morph: Vec<Vec3> = (0..target_count)
-                .flat_map(|t| {
-                    used.iter()
-                        .map(move |v| morph_displacements[t * n + pick(v)])
-                })
-                .collect();
-            let segment_vertices = SkinnedVertices {
-                positions: &positions,
-                joint_indices: &joint_indices,
-                joint_weights: &joint_weights,
+        let mut pieces = Vec::new();
+        let mut cutter = Cutter {
+            vertices,
+            morph_displacements,
+            target_count,
+            indices,
+            local: vec![u32::MAX; n],
+        };
+        for mut triangles in by_joint.into_values() {
+            let bounds = cutter.piece_of(&triangles)?.bounds;
+            let first = pieces.len();
+            let centre = |t: u32| {
+                let i = 3 * t as usize;
+                indices[i..i + 3]
+                    .iter()
+                    .map(|&v| Vec3A::from(vertices.positions[v as usize]))
+                    .sum::<Vec3A>()
             };
-            let bounds = SkinBounds::new(&segment_vertices, &morph, target_count)?;
-            for &v in &used {
-                local[v as usize] = u32::MAX;
+            for range in cut_in_pieces(&mut triangles, &centre) {
+                pieces.push(cutter.piece_of(&triangles[range])?);
             }
             segments.push(Segment {
-                positions,
-                joint_indices,
-                joint_weights,
-                morph,
-                triangles: corners,
                 bounds,
+                pieces: first..pieces.len(),
             });
         }
         Ok(Self {
             segments,
+            pieces,
             vertex_count: n,
             target_count,
         })
     }
 
-    /// The number of segments.
+    /// The number of segments (one per joint that weighs most on some triangle).
     pub fn segment_count(&self) -> usize {
         self.segments.len()
+    }
+
+    /// The number of pieces the segments were cut into.
+    pub fn piece_count(&self) -> usize {
+        self.pieces.len()
     }
 
     /// The nearest hit of `ray` on the mesh posed by `joint_matrices` (see
     /// [`joint_matrices`](super::joint_matrices)) and `morph_weights` (one per target),
     /// exactly as [`skin_positions`] would pose it, triangle numbers as in the mesh.
     /// `vertices` must be the attributes the segments were cut from (only their count is
-    /// checked); `scratch` holds a segment's posed vertices between calls. Errors: those of
-    /// [`skin_positions`] and [`SkinBounds::bound`] for the segments the ray reaches.
+    /// checked); `scratch` holds a piece's posed vertices between calls. Errors: those of
+    /// [`skin_positions`] and [`SkinBounds::bound`] for the segments and pieces the ray
+    /// reaches.
     pub fn cast_ray(
         &self,
         ray: &Ray,
@@ -181,12 +181,19 @@ impl SkinSegments {
             self.target_count,
             morph_weights.len(),
         )?;
-        // Segments by entry into their posed box, nearest first.
+        // Pieces by entry into their posed box, nearest first; only the pieces of segments
+        // whose box the ray meets.
         let mut reached: Vec<(f32, usize)> = Vec::new();
-        for (i, segment) in self.segments.iter().enumerate() {
+        for segment in &self.segments {
             let bound = segment.bounds.bound(joint_matrices, morph_weights)?;
-            if let Some(entry) = ray.intersect_aabb(&bound) {
-                reached.push((entry, i));
+            if ray.intersect_aabb(&bound).is_none() {
+                continue;
+            }
+            for i in segment.pieces.clone() {
+                let bound = self.pieces[i].bounds.bound(joint_matrices, morph_weights)?;
+                if let Some(entry) = ray.intersect_aabb(&bound) {
+                    reached.push((entry, i));
+                }
             }
         }
         reached.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -196,24 +203,24 @@ impl SkinSegments {
             if best.is_some_and(|b| entry > b.t) {
                 break;
             }
-            let segment = &self.segments[i];
+            let piece = &self.pieces[i];
             let morph = (self.target_count > 0).then_some(MorphTargets {
                 weights: morph_weights,
-                displacements: &segment.morph,
+                displacements: &piece.morph,
             });
-            let segment_vertices = SkinnedVertices {
-                positions: &segment.positions,
-                joint_indices: &segment.joint_indices,
-                joint_weights: &segment.joint_weights,
+            let piece_vertices = SkinnedVertices {
+                positions: &piece.positions,
+                joint_indices: &piece.joint_indices,
+                joint_weights: &piece.joint_weights,
             };
-            skin_positions(&segment_vertices, joint_matrices, morph, scratch)?;
-            for &(triangle, [a, b, c]) in &segment.triangles {
+            skin_positions(&piece_vertices, joint_matrices, morph, scratch)?;
+            for &(triangle, [a, b, c]) in &piece.triangles {
                 let [a, b, c] = [a, b, c].map(|v| scratch[v as usize]);
                 let Some(hit) = Triangle::new(a, b, c).intersect(&ray, backfaces) else {
                     continue;
                 };
-                // Nearest wins; on a tie the lower triangle number, whichever segment
-                // holds it, so the answer does not depend on how the mesh was cut.
+                // Nearest wins; on a tie the lower triangle number, whichever piece holds
+                // it, so the answer does not depend on how the mesh was cut.
                 if best.is_some_and(|b| hit.t > b.t || (hit.t == b.t && triangle > b.triangle)) {
                     continue;
                 }
@@ -231,4 +238,108 @@ impl SkinSegments {
         }
         Ok(best)
     }
+}
+
+/// What cutting a mesh into pieces reads, and a vertex map reused from piece to piece.
+struct Cutter<'a> {
+    vertices: &'a SkinnedVertices<'a>,
+    morph_displacements: &'a [Vec3],
+    target_count: usize,
+    indices: &'a [u32],
+    /// Each mesh vertex's index in the piece being made, `u32::MAX` outside it.
+    local: Vec<u32>,
+}
+
+impl Cutter<'_> {
+    /// The piece of `triangles` (numbers in the mesh), with the box of its vertices.
+    fn piece_of(&mut self, triangles: &[u32]) -> Result<Piece, SkinningError> {
+        let (vertices, n) = (self.vertices, self.vertices.vertex_count());
+        let mut used: Vec<u32> = Vec::new();
+        let mut corners = Vec::with_capacity(triangles.len());
+        for &t in triangles {
+            let tri = &self.indices[3 * t as usize..3 * t as usize + 3];
+            corners.push((
+                t,
+                [0, 1, 2].map(|k| {
+                    let v = tri[k] as usize;
+                    if self.local[v] == u32::MAX {
+                        self.local[v] = used.len() as u32;
+                        used.push(v as u32);
+                    }
+                    self.local[v]
+                }),
+            ));
+        }
+        for &v in &used {
+            self.local[v as usize] = u32::MAX;
+        }
+        let pick = |v: &u32| *v as usize;
+        let positions: Vec<Vec3> = used.iter().map(|v| vertices.positions[pick(v)]).collect();
+        let joint_indices: Vec<[u16; 4]> = used
+            .iter()
+            .map(|v| vertices.joint_indices[pick(v)])
+            .collect();
+        let joint_weights: Vec<[f32; 4]> = used
+            .iter()
+            .map(|v| vertices.joint_weights[pick(v)])
+            .collect();
+        let displacements = self.morph_displacements;
+        let morph: Vec<Vec3> = (0..self.target_count)
+            .flat_map(|t| used.iter().map(move |v| displacements[t * n + pick(v)]))
+            .collect();
+        let piece_vertices = SkinnedVertices {
+            positions: &positions,
+            joint_indices: &joint_indices,
+            joint_weights: &joint_weights,
+        };
+        let bounds = SkinBounds::new(&piece_vertices, &morph, self.target_count)?;
+        Ok(Piece {
+            positions,
+            joint_indices,
+            joint_weights,
+            morph,
+            triangles: corners,
+            bounds,
+        })
+    }
+}
+
+/// Orders `triangles` so that consecutive runs of at most [`PIECE_TRIANGLES`] lie close
+/// together, and returns the runs: each part is halved at the median of its triangles'
+/// `centre`s along their widest axis, until it is small enough. The order depends only on
+/// the input (ties go by triangle number), so a mesh is always cut the same way.
+fn cut_in_pieces(triangles: &mut [u32], centre: &impl Fn(u32) -> Vec3A) -> Vec<Range<usize>> {
+    let mut pieces = Vec::new();
+    let mut parts: Vec<Range<usize>> = Vec::new();
+    parts.push(0..triangles.len());
+    while let Some(part) = parts.pop() {
+        if part.len() <= PIECE_TRIANGLES {
+            if !part.is_empty() {
+                pieces.push(part);
+            }
+            continue;
+        }
+        let slice = &mut triangles[part.clone()];
+        let (lo, hi) = slice
+            .iter()
+            .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), &t| {
+                (lo.min(centre(t)), hi.max(centre(t)))
+            });
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = slice.len() / 2;
+        slice.select_nth_unstable_by(mid, |&a, &b| {
+            centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b))
+        });
+        parts.push(part.start + mid..part.end);
+        parts.push(part.start..part.start + mid);
+    }
+    pieces.sort_by_key(|r| r.start);
+    pieces
 }

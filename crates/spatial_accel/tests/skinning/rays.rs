@@ -369,6 +369,8 @@ fn segments_answer_as_the_posed_triangles() {
         .collect();
     let segments = SkinSegments::new(&vertices, &displacements, 2, &indices).unwrap();
     assert!(segments.segment_count() >= joint_count - 2);
+    // Segments of more triangles than a piece holds are cut: the pieces are exercised.
+    assert!(segments.piece_count() > 2 * segments.segment_count());
     let (mut globals, mut joints, mut posed, mut scratch) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut rays, mut hits) = (0, 0);
