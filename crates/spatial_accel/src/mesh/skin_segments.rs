@@ -122,6 +122,7 @@ impl SkinSegments {
         for mut triangles in by_joint.into_values() {
             let bounds = cutter.piece_of(&triangles)?.bounds;
             let first = pieces.len();
+            // Three times the triangle's centre: only the order along an axis matters.
             let centre = |t: u32| {
                 let i = 3 * t as usize;
                 indices[i..i + 3]
