@@ -71,3 +71,71 @@ fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
     assert!(most_busy > 10_000, "{most_busy} busy movers at most");
     assert!(busy_moves > 300_000, "{busy_moves} busy moves");
 }
+
+#[test]
+fn a_large_world_with_few_movers_is_scanned_from_every_thread() {
+    let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
+    assert_eq!(pool.thread_num(), 4);
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin))
+        .add_plugins(AccelPlugin::default());
+    let unit = Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5));
+    let mut rng = Rng::from_state(34);
+    // Past the size from which the change scan alone is split across the pool, with far
+    // fewer movers than would make the busy movers' pass parallel by themselves.
+    let mut entities: Vec<Entity> = (0..40_000)
+        .map(|_| {
+            app.world_mut()
+                .spawn((Transform::from_translation(rng.vec3(-400.0, 400.0)), unit))
+                .id()
+        })
+        .collect();
+    app.update();
+    let mut busy_moves = 0;
+    let mut index_moves = 0;
+    for frame in 0..30 {
+        let world = app.world_mut();
+        // A few hundred move every frame, a different few join each frame (first moves are
+        // the dynamic index's: left for the one-thread placement), some get a bad transform
+        // for a while, and some leave while others arrive.
+        for i in 0..400 {
+            let e = entities[(i * 97) % entities.len()];
+            let mut t = world.get_mut::<Transform>(e).unwrap();
+            t.translation += Vec3::from(rng.vec3a(-1.0, 1.0));
+        }
+        for i in 0..100 {
+            let e = entities[(frame * 1_000 + i * 13 + 5) % entities.len()];
+            let mut t = world.get_mut::<Transform>(e).unwrap();
+            t.translation += Vec3::from(rng.vec3a(-30.0, 30.0));
+            match frame % 6 {
+                2 if i < 10 => t.scale = Vec3::ZERO,
+                4 if i < 10 => t.scale = Vec3::ONE,
+                _ => {}
+            }
+        }
+        if frame % 5 == 4 {
+            for _ in 0..50 {
+                let i = rng.below(entities.len());
+                world.despawn(entities.swap_remove(i));
+            }
+            for _ in 0..50 {
+                let t = Transform::from_translation(rng.vec3(-400.0, 400.0));
+                entities.push(world.spawn((t, unit)).id());
+            }
+        }
+        app.update();
+        check_consistency(&mut app);
+        let stats = app.world().resource::<AccelStats>();
+        assert!(
+            stats.dynamic_entities > 32_768,
+            "{}",
+            stats.dynamic_entities
+        );
+        busy_moves += stats.busy_moved;
+        index_moves += stats.moved - stats.busy_moved;
+    }
+    // Both kinds of move went through the pass: busy movers from the threads, the rest left
+    // to the placement after it.
+    assert!(busy_moves > 5_000, "{busy_moves} busy moves");
+    assert!(index_moves > 1_000, "{index_moves} moves in the index");
+}

@@ -42,6 +42,15 @@ type MovedQuery<'w, 's, StaticFilter> = Query<
 /// start costs more than it saves.
 const PARALLEL_BUSY_FROM: usize = 8_192;
 
+/// From this many dynamic entities, with more than one compute thread, the `Changed` scan
+/// itself is split across the pool even when few of them move: it reads every dynamic
+/// entity's change ticks, a serial cost that grows with the world, not with its movers.
+const PARALLEL_SCAN_FROM: usize = 32_768;
+
+/// The parallel scan leaves to one thread the movers that are not busy movers (they are
+/// edits of the dynamic index): it is taken only while last frame had at most this many.
+const PARALLEL_SCAN_MAX_LEFT: usize = 1_024;
+
 /// One thread's share of a parallel pass over the moved entities. Aligned to two cache lines
 /// so that the threads' shares, which `Parallel` keeps side by side, never share one: the
 /// count is bumped per mover (see `FlatTally`).
@@ -138,7 +147,10 @@ pub(crate) fn sync_trees(
             }
         }
     };
-    let parallel = tree_state.busy_len() >= PARALLEL_BUSY_FROM
+    let dynamic_len = tree_state.query().dynamic_len() + tree_state.busy_len();
+    let left_last_frame = stats.moved.saturating_sub(stats.busy_moved);
+    let parallel = (tree_state.busy_len() >= PARALLEL_BUSY_FROM
+        || (dynamic_len >= PARALLEL_SCAN_FROM && left_last_frame <= PARALLEL_SCAN_MAX_LEFT))
         && ComputeTaskPool::try_get().is_some_and(|pool| pool.thread_num() > 1);
     if parallel {
         let left = move_busy_movers_in_parallel(
@@ -225,7 +237,9 @@ pub(crate) fn sync_trees(
 ///
 /// Why: at a million entities the sync's moves are most of its time, and a busy mover's move
 /// (its rows read, its world box computed, one list entry written) touches nothing another
-/// mover's does; Bevy's own per-entity passes use the pool the same way.
+/// mover's does; Bevy's own per-entity passes use the pool the same way. In a large world
+/// with few movers, the `Changed` scan that finds them (every dynamic entity's ticks) is
+/// the sync's time, and it splits the same way.
 fn move_busy_movers_in_parallel(
     trees: &mut AccelTrees,
     moved: &MovedQuery<Without<AccelStatic>>,
