@@ -11,30 +11,53 @@ mod common;
 use accel_testkit::Rng;
 use common::check_consistency;
 
-#[test]
-fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
+/// An app with the plugin on a compute pool of four threads.
+fn app_on_four_threads(settings: AccelSettings) -> App {
     // Made before the app, which then keeps it (Bevy makes its pools once per process).
     let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
     assert_eq!(pool.thread_num(), 4);
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, TransformPlugin))
-        .add_plugins(AccelPlugin {
-            settings: AccelSettings {
-                busy_movers: BusyMoverSettings {
-                    mode: BusyMovers::On,
-                    ..default()
-                },
-                ..default()
-            },
-        });
+        .add_plugins(AccelPlugin { settings });
+    app
+}
+
+/// A unit box within `half` of the origin.
+fn spawn_box(world: &mut World, rng: &mut Rng, half: f32) -> Entity {
     let unit = Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5));
+    let t = Transform::from_translation(rng.vec3(-half, half));
+    world.spawn((t, unit)).id()
+}
+
+/// Despawns `count` of `entities` at random and spawns as many boxes in their place.
+fn replace_some(
+    world: &mut World,
+    entities: &mut Vec<Entity>,
+    rng: &mut Rng,
+    count: usize,
+    half: f32,
+) {
+    for _ in 0..count {
+        let i = rng.below(entities.len());
+        world.despawn(entities.swap_remove(i));
+    }
+    for _ in 0..count {
+        entities.push(spawn_box(world, rng, half));
+    }
+}
+
+#[test]
+fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
+    let mut app = app_on_four_threads(AccelSettings {
+        busy_movers: BusyMoverSettings {
+            mode: BusyMovers::On,
+            ..default()
+        },
+        ..default()
+    });
     let mut rng = Rng::from_state(21);
     let mut movers: Vec<Entity> = (0..12_000)
-        .map(|_| {
-            app.world_mut()
-                .spawn((Transform::from_translation(rng.vec3(-200.0, 200.0)), unit))
-                .id()
-        })
+        .map(|_| spawn_box(app.world_mut(), &mut rng, 200.0))
         .collect();
     let mut most_busy = 0;
     let mut busy_moves = 0;
@@ -52,14 +75,7 @@ fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
             }
         }
         if frame % 5 == 4 {
-            for _ in 0..200 {
-                let i = rng.below(movers.len());
-                world.despawn(movers.swap_remove(i));
-            }
-            for _ in 0..200 {
-                let t = Transform::from_translation(rng.vec3(-200.0, 200.0));
-                movers.push(world.spawn((t, unit)).id());
-            }
+            replace_some(world, &mut movers, &mut rng, 200, 200.0);
         }
         app.update();
         check_consistency(&mut app);
@@ -74,21 +90,12 @@ fn busy_movers_move_from_every_thread_beside_the_rest_of_the_sync() {
 
 #[test]
 fn a_large_world_with_few_movers_is_scanned_from_every_thread() {
-    let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(4).build());
-    assert_eq!(pool.thread_num(), 4);
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin))
-        .add_plugins(AccelPlugin::default());
-    let unit = Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5));
+    let mut app = app_on_four_threads(AccelSettings::default());
     let mut rng = Rng::from_state(34);
     // Past the size from which the change scan alone is split across the pool, with far
     // fewer movers than would make the busy movers' pass parallel by themselves.
     let mut entities: Vec<Entity> = (0..40_000)
-        .map(|_| {
-            app.world_mut()
-                .spawn((Transform::from_translation(rng.vec3(-400.0, 400.0)), unit))
-                .id()
-        })
+        .map(|_| spawn_box(app.world_mut(), &mut rng, 400.0))
         .collect();
     app.update();
     let mut busy_moves = 0;
@@ -114,14 +121,7 @@ fn a_large_world_with_few_movers_is_scanned_from_every_thread() {
             }
         }
         if frame % 5 == 4 {
-            for _ in 0..50 {
-                let i = rng.below(entities.len());
-                world.despawn(entities.swap_remove(i));
-            }
-            for _ in 0..50 {
-                let t = Transform::from_translation(rng.vec3(-400.0, 400.0));
-                entities.push(world.spawn((t, unit)).id());
-            }
+            replace_some(world, &mut entities, &mut rng, 50, 400.0);
         }
         app.update();
         check_consistency(&mut app);
