@@ -147,10 +147,10 @@ pub(crate) fn sync_trees(
             }
         }
     };
-    let dynamic_len = tree_state.query().dynamic_len() + tree_state.busy_len();
+    let dynamic_entities = tree_state.query().dynamic_len() + tree_state.busy_len();
     let left_last_frame = stats.moved.saturating_sub(stats.busy_moved);
     let parallel = (tree_state.busy_len() >= PARALLEL_BUSY_FROM
-        || (dynamic_len >= PARALLEL_SCAN_FROM && left_last_frame <= PARALLEL_SCAN_MAX_LEFT))
+        || (dynamic_entities >= PARALLEL_SCAN_FROM && left_last_frame <= PARALLEL_SCAN_MAX_LEFT))
         && ComputeTaskPool::try_get().is_some_and(|pool| pool.thread_num() > 1);
     if parallel {
         let left = move_busy_movers_in_parallel(
