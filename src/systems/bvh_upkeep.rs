@@ -60,7 +60,8 @@ impl RayTraffic {
 
 /// The BVH backend's frame: refits what moved, lets the optimiser spend its budget, rebuilds
 /// when quality has decayed, then keeps the ray snapshot (see [`keep_ray_snapshot`]). Does no
-/// tree work in a frame where no dynamic leaf moved, and takes `trees` mutably only for work.
+/// tree work in a frame where no dynamic leaf moved and no rebuild landed, and takes `trees`
+/// mutably only for work.
 pub(crate) fn maintain_bvh(
     settings: &BvhIndexSettings,
     trees: &mut ResMut<AccelTrees>,
@@ -72,13 +73,17 @@ pub(crate) fn maintain_bvh(
     };
     let snapshot_moved = pair.dynamic_ray_snapshot_needs_refit();
     let tree_moved = pair.dynamic().needs_refit();
+    // A rebuild started by an edit lands in a later frame, which may have no edit of its
+    // own: a world that holds still after a large spawn would otherwise keep its tree of
+    // insertions, and every view and query would walk it.
+    let rebuild_landing = pair.dynamic().rebuild_finished();
     let worth_refitting = traffic.rays_pay_for_refits(settings);
     let spawned = stats.inserted > 0 || stats.removed > 0;
     let mut report = None;
     if snapshot_moved && !worth_refitting {
         with_pair(trees, StaticDynamicPair::drop_dynamic_ray_snapshot);
     }
-    if tree_moved || spawned {
+    if tree_moved || spawned || rebuild_landing {
         report = with_pair(trees, StaticDynamicPair::maintain_dynamic);
     } else if snapshot_moved && worth_refitting {
         // Motion inside the fat boxes: nothing for the dynamic tree, but the snapshot's

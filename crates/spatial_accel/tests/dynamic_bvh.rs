@@ -412,7 +412,13 @@ fn background_rebuild_replays_edits_made_meanwhile() {
         handles.insert(i, t.insert(i, b).unwrap());
         model.insert(i, b);
     }
+    // An engine polls `rebuild_finished` to know that a frame without edits still has work.
+    while !t.rebuild_finished() {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(t.rebuild_in_flight());
     assert!(t.finish_background_rebuild());
+    assert!(!t.rebuild_finished() && !t.rebuild_in_flight());
     assert_eq!(t.rebuild_count(), 1);
     t.validate().unwrap();
     check_ids(&t, &model, &handles);

@@ -36,7 +36,7 @@ use crate::json::{Point, Report};
 use accel_testkit::Rng;
 use accel_testkit::bevy_apps::plain_bevy_app;
 use bevy::app::App;
-use bevy_accel::AccelPlugin;
+use bevy_accel::{AccelPlugin, AccelSettings, AccelStats, AccelTrees};
 use glam::Vec3A;
 use spatial_accel::Ray;
 
@@ -72,6 +72,47 @@ pub fn headless_app() -> App {
     let mut app = plain_bevy_app();
     app.add_plugins(AccelPlugin::default());
     app
+}
+
+/// Runs `app`'s frames through `update` until its trees stand as in a world that has held
+/// still for a while: the dynamic tree's rebuild after the spawn installed, then still frames
+/// past the point where the dynamic tree's ray snapshot is due, until no build of the trees
+/// runs on a thread of its own. Nothing is timed before: a tree of insertions is not what a
+/// game queries a second after its spawn, and a build off the frame takes one of the
+/// machine's cores.
+pub fn settle_still_trees(app: &mut App, mut update: impl FnMut(&mut App)) {
+    let busy = |app: &App| {
+        let trees = app.world().resource::<AccelTrees>();
+        let rebuilding = trees
+            .dynamic_bvh()
+            .is_some_and(|d| !d.is_empty() && (d.rebuild_count() == 0 || d.rebuild_in_flight()));
+        let snapshot = trees
+            .query()
+            .bvh_pair()
+            .is_some_and(|pair| pair.dynamic_ray_snapshot_pending());
+        let static_build = app.world().resource::<AccelStats>().static_build_in_flight;
+        rebuilding || snapshot || static_build
+    };
+    let wait = |app: &mut App, update: &mut dyn FnMut(&mut App)| {
+        for _ in 0..2_000 {
+            if !busy(app) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            update(app);
+        }
+    };
+    wait(app, &mut update);
+    let still_frames = app
+        .world()
+        .resource::<AccelSettings>()
+        .bvh
+        .ray_snapshot_after_stable_frames
+        .unwrap_or(0);
+    for _ in 0..still_frames + 2 {
+        update(app);
+    }
+    wait(app, &mut update);
 }
 
 /// One point of a plot.

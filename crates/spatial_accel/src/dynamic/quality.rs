@@ -243,6 +243,17 @@ impl DynamicBvh {
         self.quality.job.is_some()
     }
 
+    /// True when a background rebuild is done and waits for [`maintain`](Self::maintain) (or
+    /// [`finish_background_rebuild`](Self::finish_background_rebuild)) to install it. An
+    /// engine that maintains the tree only in frames with edits must also do so then, or a
+    /// world that holds still after a large spawn keeps its tree of insertions for good.
+    pub fn rebuild_finished(&self) -> bool {
+        self.quality
+            .job
+            .as_ref()
+            .is_some_and(|j| j.handle.is_finished())
+    }
+
     /// The once-per-frame call: refit what moved, install a finished background rebuild,
     /// optimise within the configured budget, and rebuild when the quality estimate passed
     /// [`DynamicBvhConfig::rebuild_threshold`](super::DynamicBvhConfig::rebuild_threshold) or
@@ -253,12 +264,7 @@ impl DynamicBvh {
             refit_nodes: self.refit(),
             ..MaintainReport::default()
         };
-        if self
-            .quality
-            .job
-            .as_ref()
-            .is_some_and(|j| j.handle.is_finished())
-        {
+        if self.rebuild_finished() {
             report.rebuilt = self.finish_background_rebuild();
         }
         // A fixed count would rework a small tree whole every frame: at a thousand leaves,

@@ -184,6 +184,11 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
                 s.automatic.is_none_or(|a| a.recommended == s.index)
                     && !trees.index_switch_in_flight()
                     && !s.static_build_in_flight
+                    // The dynamic tree's first rebuild after the spawn: later ones are the
+                    // steady state of a moving world.
+                    && trees
+                        .dynamic_bvh()
+                        .is_none_or(|d| d.rebuild_count() > 0 || !d.rebuild_in_flight())
                     // The dynamic tree's ray snapshot, built on a thread of its own once
                     // the tree has held still: a one-off that would take a core from the
                     // measured frames on a machine of two.

@@ -2,7 +2,7 @@
 //! them, brought to a steady state (first rebuilds installed, the ray snapshot taken where
 //! allowed) before anything is timed.
 
-use crate::suites::headless_app;
+use crate::suites::{headless_app, settle_still_trees};
 use accel_testkit::Rng;
 use bevy::prelude::*;
 use bevy_accel::picking::{AccelPickingSettings, SlotMeshTable, SlotMeshTableMode};
@@ -95,24 +95,10 @@ pub fn world(n: usize, kind: WorldKind, rays: usize) -> (App, Vec<Ray3d>, Option
     app.update();
     let mut snapshot_note = None;
     // Steady state: the dynamic BVH's first rebuild (started in the background once the
-    // spawns are in) is installed before anything is timed. The other indexes have no
-    // rebuild to wait for.
-    for _ in 0..500 {
-        let settled = app
-            .world()
-            .resource::<AccelTrees>()
-            .dynamic_bvh()
-            .is_none_or(|d| d.is_empty() || (d.rebuild_count() > 0 && !d.rebuild_in_flight()));
-        if settled {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-        update_noting_snapshot(&mut app, &mut snapshot_note);
-    }
-    // Still frames, after which the plugin copies the dynamic tree for rays (when allowed).
-    for _ in 0..32 {
-        update_noting_snapshot(&mut app, &mut snapshot_note);
-    }
+    // spawns are in) installed, and the ray snapshot taken where allowed.
+    settle_still_trees(&mut app, |app| {
+        update_noting_snapshot(app, &mut snapshot_note)
+    });
     let rays = (0..rays)
         .map(|_| {
             let origin = rng.vec3(-half * 1.2, half * 1.2);

@@ -9,7 +9,7 @@
 
 mod drag;
 
-use super::{headless_app, point};
+use super::{headless_app, point, settle_still_trees};
 use crate::json::{Point, Report, StressRow};
 use crate::progress::Progress;
 use crate::timing::median;
@@ -130,6 +130,9 @@ fn scene(n: usize, moving: bool) -> (App, Entity, Mat4) {
     // A few frames: the moving units are then kept as busy movers.
     for _ in 0..if moving { 6 } else { 2 } {
         app.update();
+    }
+    if !moving {
+        settle_still_trees(&mut app, App::update);
     }
     (
         app,
