@@ -118,4 +118,6 @@ fn a_world_that_holds_still_after_a_spawn_gets_the_rebuilt_tree() {
         log[landed..].iter().all(|(changed, ..)| !changed),
         "{log:?}"
     );
+    // And the landing started no further rebuild: a still world keeps no core busy.
+    assert_eq!(tree(&app), (27_000, 1, false));
 }
