@@ -183,6 +183,10 @@ impl Scene {
         self.button(ButtonState::Released);
     }
 
+    fn changes(&self) -> &Changes {
+        self.app.world().resource::<Changes>()
+    }
+
     fn selected(&mut self) -> Vec<Entity> {
         let world = self.app.world_mut();
         let mut q = world.query_filtered::<Entity, With<Selected>>();
@@ -274,6 +278,25 @@ fn a_drag_selects_what_its_rectangle_holds_shift_adds_and_escape_clears() {
     union.dedup();
     assert_eq!(s.selected(), union, "shift adds a drag's cubes");
     s.key(KeyCode::ShiftRight, ButtonState::Released);
+    // Replacing a selection it overlaps: what both hold stays (neither removed nor added
+    // again), the rest of the old goes, the rest of the new comes.
+    let from3 = s.screen(Vec3::new(-2.0, 0.0, -8.0));
+    let want3 = s.projected_inside(from3, to);
+    let kept = union.iter().filter(|e| want3.contains(e)).count();
+    assert!(kept > 0 && kept < want3.len() && kept < union.len());
+    let before = (s.changes().added, s.changes().removed);
+    s.drag(from3, to);
+    assert_eq!(
+        s.selected(),
+        want3,
+        "a drag replaces an overlapping selection"
+    );
+    let after = (s.changes().added, s.changes().removed);
+    assert_eq!(
+        (after.0 - before.0, after.1 - before.1),
+        (want3.len() - kept, union.len() - kept),
+        "the change reports only what came and went"
+    );
     // A press that moves less than the threshold is a click, not a drag.
     s.move_to(from);
     s.button(ButtonState::Pressed);
