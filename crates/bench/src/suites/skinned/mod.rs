@@ -2,8 +2,8 @@
 //! headless Bevy apps updated in turn frame by frame, each `App::update` timed whole, the
 //! cast of the pointer ray timed alone (`Instant` around the call, in the casting system).
 //!
-//! Scenes: 100 and 1,000 of the test kit's walking characters (about 5k triangles, and 20k at
-//! 100 characters) on a grid 2.5 m apart, every joint of every character posed every frame
+//! Scenes: 100 and 1,000 of the test kit's walking characters (about 5k and 20k triangles)
+//! on a grid 2.5 m apart, every joint of every character posed every frame
 //! by a system in `Update` writing `walk_pose(t + phase)` into the joints' `Transform`s (a
 //! phase per character). The characters' `Aabb` is the bind pose's, as for a mesh built in
 //! code; one more scene gives them Bevy's `DynamicSkinnedMeshBounds` (what Bevy's glTF loader
@@ -73,9 +73,11 @@ const FULL: &[Size] = &[
     size(100, 5_000, false, 300),
     size(1_000, 5_000, false, 150),
     size(100, 20_000, false, 300),
+    size(1_000, 20_000, false, 150),
     size(100, 5_000, true, 300),
     size(1_000, 5_000, true, 150),
     size(100, 20_000, true, 300),
+    size(1_000, 20_000, true, 150),
 ];
 
 const QUICK: &[Size] = &[Size {
