@@ -83,9 +83,8 @@ pub fn headless_app() -> App {
 pub fn settle_still_trees(app: &mut App, mut update: impl FnMut(&mut App)) {
     let busy = |app: &App| {
         let trees = app.world().resource::<AccelTrees>();
-        let rebuilding = trees
-            .dynamic_bvh()
-            .is_some_and(|d| !d.is_empty() && (d.rebuild_count() == 0 || d.rebuild_in_flight()));
+        // The spawn's frame starts the rebuild (a tree too small for one starts none).
+        let rebuilding = trees.dynamic_bvh().is_some_and(|d| d.rebuild_in_flight());
         let snapshot = trees
             .query()
             .bvh_pair()
