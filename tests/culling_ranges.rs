@@ -10,7 +10,7 @@ use bevy_accel::prelude::*;
 mod common;
 mod culling_scene;
 use accel_testkit::Rng;
-use common::{grid_point, headless_app};
+use common::headless_app;
 use culling_scene::*;
 
 /// Bevy's visibility ranges (HLOD bands measured from each camera), entities and a camera that
@@ -20,31 +20,25 @@ use culling_scene::*;
 fn visible_sets_equal_bevys_with_ranges_and_opt_outs() {
     use bevy::camera::visibility::{NoCpuCulling, VisibilityRange, VisibilityRangePlugin};
     const SIDE: usize = 16;
-    let class = drawable_class();
     let grid = |app: &mut App| -> Vec<Entity> {
-        let world = app.world_mut();
-        (0..SIDE * SIDE * SIDE)
-            .map(|i| {
-                let mut e = spawn_drawable(world, &class, grid_point(i, SIDE), 0.6);
-                if i % 5 == 0 {
-                    e.insert(VisibilityRange {
-                        start_margin: 20.0..26.0,
-                        end_margin: 45.0..52.0,
-                        use_aabb: i % 10 == 0,
-                    });
-                }
-                if i % 11 == 0 {
-                    e.insert(NoCpuCulling);
-                }
-                if i % 13 == 0 {
-                    e.insert(NoFrustumCulling);
-                }
-                if i % 7 == 0 {
-                    e.insert(AccelStatic);
-                }
-                e.id()
-            })
-            .collect()
+        spawn_grid(app.world_mut(), SIDE, 0.6, |i, e| {
+            if i % 5 == 0 {
+                e.insert(VisibilityRange {
+                    start_margin: 20.0..26.0,
+                    end_margin: 45.0..52.0,
+                    use_aabb: i % 10 == 0,
+                });
+            }
+            if i % 11 == 0 {
+                e.insert(NoCpuCulling);
+            }
+            if i % 13 == 0 {
+                e.insert(NoFrustumCulling);
+            }
+            if i % 7 == 0 {
+                e.insert(AccelStatic);
+            }
+        })
     };
     let ranged_app = |ours: bool| {
         let mut app = headless_app();
@@ -103,15 +97,7 @@ fn visible_sets_equal_bevys_with_ranges_and_opt_outs() {
             }
             app.update();
         }
-        let (bevy_lists, bevy_flags) = visible_sets(&mut bevy_app, &a);
-        let (accel_lists, accel_flags) = visible_sets(&mut accel_app, &b);
-        assert_eq!(bevy_lists, accel_lists, "frame {frame}");
-        assert_eq!(bevy_flags, accel_flags, "frame {frame}");
-        assert_eq!(
-            changed_indices(&bevy_app, &a),
-            changed_indices(&accel_app, &b),
-            "frame {frame}: entities whose ViewVisibility changed"
-        );
+        let bevy_lists = assert_culled_alike((&mut bevy_app, &a), (&mut accel_app, &b), frame);
         // Some ranged entities are in view and some are not, this frame or overall.
         let ranged_seen = bevy_lists[0].iter().filter(|&&i| i % 5 == 0).count();
         in_range_changes += usize::from(ranged_seen > 0 && ranged_seen < bevy_lists[0].len());

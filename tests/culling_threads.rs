@@ -6,23 +6,15 @@
 //! that its pool has the threads it asks for.
 
 use bevy::camera::primitives::{Aabb, Frustum};
-use bevy::camera::visibility::{VisibilityClass, VisibleEntities};
-use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPoolBuilder};
 use bevy_accel::prelude::*;
 
 mod common;
+mod culling_scene;
 use accel_testkit::Rng;
 use common::headless_app;
-use std::any::TypeId;
-
-#[derive(Component, Default)]
-struct Drawable;
-
-/// Which of the test's cameras a view is.
-#[derive(Component)]
-struct ViewIndex(usize);
+use culling_scene::{Drawable, ViewIndex, drawable_class, frustum, visible_sets};
 
 /// A box wobbling round `home` every frame; a leaper is across the world in frames 2 and 3.
 #[derive(Component)]
@@ -76,16 +68,9 @@ fn app(ours: bool) -> App {
     app
 }
 
-fn frustum(eye: Vec3, target: Vec3, fov: f32) -> Frustum {
-    let view = Mat4::look_at_rh(eye, target, Vec3::Y);
-    let proj = Mat4::perspective_infinite_reverse_rh(fov, 1.5, 0.1);
-    Frustum(ViewFrustum::from_clip_from_world(&(proj * view)))
-}
-
 fn populate(app: &mut App, layout: Layout) -> Vec<Entity> {
     let mut rng = Rng::from_state(5);
-    let mut class = VisibilityClass::default();
-    class.push(TypeId::of::<Drawable>());
+    let class = drawable_class();
     let world = app.world_mut();
     let hidden = world.spawn((Transform::default(), Visibility::Hidden)).id();
     let entities = (0..24_000)
@@ -141,28 +126,6 @@ fn populate(app: &mut App, layout: Layout) -> Vec<Entity> {
     entities
 }
 
-/// Per view, the visible entities as indices into the spawn order.
-fn visible_sets(app: &mut App, entities: &[Entity]) -> Vec<Vec<usize>> {
-    let index: std::collections::HashMap<Entity, usize> =
-        entities.iter().enumerate().map(|(i, e)| (*e, i)).collect();
-    let world = app.world_mut();
-    let mut views = world.query::<(&ViewIndex, &VisibleEntities)>();
-    let mut views: Vec<(&ViewIndex, &VisibleEntities)> = views.iter(world).collect();
-    views.sort_by_key(|(i, _)| i.0);
-    views
-        .into_iter()
-        .map(|(_, v)| {
-            let mut l: Vec<usize> = v
-                .get(TypeId::of::<Drawable>())
-                .iter()
-                .map(|e| index[e])
-                .collect();
-            l.sort_unstable();
-            l
-        })
-        .collect()
-}
-
 /// Culls `layout` in both apps over `frames` frames, checking every frame's visible sets,
 /// and returns the accel app.
 fn check(layout: Layout, frames: usize) -> App {
@@ -179,8 +142,8 @@ fn check(layout: Layout, frames: usize) -> App {
         bevy_app.update();
         accel_app.update();
         let (want, got) = (
-            visible_sets(&mut bevy_app, &a),
-            visible_sets(&mut accel_app, &b),
+            visible_sets(&mut bevy_app, &a).0,
+            visible_sets(&mut accel_app, &b).0,
         );
         assert!(
             want[0].len() > 100 && want[1].len() > 10_000,

@@ -10,7 +10,7 @@ use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use std::any::TypeId;
 
-use crate::common::headless_app;
+use crate::common::{grid_point, headless_app};
 
 /// Which of the test's cameras a view is (query order differs between the two apps).
 #[derive(Component)]
@@ -115,4 +115,41 @@ pub fn changed_indices(app: &App, entities: &[Entity]) -> Vec<usize> {
         .collect();
     changed.sort_unstable();
     changed
+}
+
+/// A cube of `side`³ visible `Drawable` cubes of half side `half` on the test kit's grid, in
+/// spawn order, each given its test's extras by `decorate` (its index, its entity).
+pub fn spawn_grid(
+    world: &mut World,
+    side: usize,
+    half: f32,
+    mut decorate: impl FnMut(usize, &mut EntityWorldMut),
+) -> Vec<Entity> {
+    let class = drawable_class();
+    (0..side * side * side)
+        .map(|i| {
+            let mut e = spawn_drawable(world, &class, grid_point(i, side), half);
+            decorate(i, &mut e);
+            e.id()
+        })
+        .collect()
+}
+
+/// Asserts that both apps culled alike this frame: the same visible sets, `ViewVisibility`
+/// flags and changes of them. Returns Bevy's visible sets, for the test's own checks.
+pub fn assert_culled_alike(
+    (bevy, a): (&mut App, &[Entity]),
+    (accel, b): (&mut App, &[Entity]),
+    frame: usize,
+) -> Vec<Vec<usize>> {
+    let (bevy_lists, bevy_flags) = visible_sets(bevy, a);
+    let (accel_lists, accel_flags) = visible_sets(accel, b);
+    assert_eq!(bevy_lists, accel_lists, "frame {frame}");
+    assert_eq!(bevy_flags, accel_flags, "frame {frame}");
+    assert_eq!(
+        changed_indices(bevy, a),
+        changed_indices(accel, b),
+        "frame {frame}: entities whose ViewVisibility changed"
+    );
+    bevy_lists
 }
