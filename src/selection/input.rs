@@ -170,10 +170,10 @@ fn apply(
     replace: bool,
     camera: Option<Entity>,
 ) {
-    // The selection as it stands, sorted, merged with `found` in one pass. Asking the
-    // query about each found entity, and searching `found` for each selected one, costs a
-    // lookup a unit: a drag over tens of thousands of units paid a millisecond or more for
-    // that alone, the same again when it replaced a selection as large.
+    // The selection as it stands, sorted, merged with `found` in one pass: asking the query
+    // about each found entity and searching `found` for each selected one would cost a
+    // random lookup a unit, and a drag can select tens of thousands (BENCHMARKS.md,
+    // Selection).
     let mut current: Vec<u64> = selected.iter().map(Entity::to_bits).collect();
     sort_keys(&mut current);
     let (mut batch, mut removed) = (Vec::new(), 0);

@@ -74,27 +74,31 @@ pub fn headless_app() -> App {
     app
 }
 
+/// Whether `app`'s trees are being built on a thread of their own: the dynamic tree's first
+/// rebuild after the spawn (later ones are the steady state of a moving world), its ray
+/// snapshot, or a static tree. On a machine of two cores such a one-off build takes one of
+/// them from the frames it overlaps, so nothing is timed while it runs.
+pub fn trees_building_off_frame(app: &App) -> bool {
+    let trees = app.world().resource::<AccelTrees>();
+    let first_rebuild = trees
+        .dynamic_bvh()
+        .is_some_and(|d| d.rebuild_count() == 0 && d.rebuild_in_flight());
+    let snapshot = trees
+        .query()
+        .bvh_pair()
+        .is_some_and(|pair| pair.dynamic_ray_snapshot_pending());
+    first_rebuild || snapshot || app.world().resource::<AccelStats>().static_build_in_flight
+}
+
 /// Runs `app`'s frames through `update` until its trees stand as in a world that has held
 /// still for a while: the dynamic tree's rebuild after the spawn installed, then still frames
 /// past the point where the dynamic tree's ray snapshot is due, until no build of the trees
-/// runs on a thread of its own. Nothing is timed before: a tree of insertions is not what a
-/// game queries a second after its spawn, and a build off the frame takes one of the
-/// machine's cores.
+/// runs off the frame ([`trees_building_off_frame`]). Nothing is timed before: a tree of
+/// insertions is not what a game queries a second after its spawn.
 pub fn settle_still_trees(app: &mut App, mut update: impl FnMut(&mut App)) {
-    let busy = |app: &App| {
-        let trees = app.world().resource::<AccelTrees>();
-        // The spawn's frame starts the rebuild (a tree too small for one starts none).
-        let rebuilding = trees.dynamic_bvh().is_some_and(|d| d.rebuild_in_flight());
-        let snapshot = trees
-            .query()
-            .bvh_pair()
-            .is_some_and(|pair| pair.dynamic_ray_snapshot_pending());
-        let static_build = app.world().resource::<AccelStats>().static_build_in_flight;
-        rebuilding || snapshot || static_build
-    };
     let wait = |app: &mut App, update: &mut dyn FnMut(&mut App)| {
         for _ in 0..2_000 {
-            if !busy(app) {
+            if !trees_building_off_frame(app) {
                 return;
             }
             std::thread::sleep(std::time::Duration::from_millis(5));

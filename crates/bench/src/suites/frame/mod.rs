@@ -36,7 +36,7 @@
 
 mod app;
 
-use super::point;
+use super::{point, trees_building_off_frame};
 use crate::Options;
 use crate::json::{Point, Report};
 use crate::progress::Progress;
@@ -180,22 +180,12 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
     for app in &mut apps {
         for _ in 0..400 {
             let settled = app.world().get_resource::<AccelStats>().is_none_or(|s| {
-                let trees = app.world().resource::<bevy_accel::AccelTrees>();
                 s.automatic.is_none_or(|a| a.recommended == s.index)
-                    && !trees.index_switch_in_flight()
-                    && !s.static_build_in_flight
-                    // The dynamic tree's first rebuild after the spawn: later ones are the
-                    // steady state of a moving world.
-                    && trees
-                        .dynamic_bvh()
-                        .is_none_or(|d| d.rebuild_count() > 0 || !d.rebuild_in_flight())
-                    // The dynamic tree's ray snapshot, built on a thread of its own once
-                    // the tree has held still: a one-off that would take a core from the
-                    // measured frames on a machine of two.
-                    && !trees
-                        .query()
-                        .bvh_pair()
-                        .is_some_and(|pair| pair.dynamic_ray_snapshot_pending())
+                    && !app
+                        .world()
+                        .resource::<bevy_accel::AccelTrees>()
+                        .index_switch_in_flight()
+                    && !trees_building_off_frame(app)
             });
             if settled {
                 break;
