@@ -155,6 +155,7 @@ pub(crate) fn sync_trees(
     if parallel {
         let left = move_busy_movers_in_parallel(
             tree_state,
+            dynamic_entities,
             &moved,
             settings.require_marker,
             &mut batches,
@@ -239,9 +240,11 @@ pub(crate) fn sync_trees(
 /// (its rows read, its world box computed, one list entry written) touches nothing another
 /// mover's does; Bevy's own per-entity passes use the pool the same way. In a large world
 /// with few movers, the `Changed` scan that finds them (every dynamic entity's ticks) is
-/// the sync's time, and it splits the same way.
+/// the sync's time, and it splits the same way. `dynamic_entities` (what the scan goes
+/// through) sizes its batches.
 fn move_busy_movers_in_parallel(
     trees: &mut AccelTrees,
+    dynamic_entities: usize,
     moved: &MovedQuery<Without<AccelStatic>>,
     require_marker: bool,
     batches: &mut Parallel<MovesBatch>,
@@ -254,7 +257,7 @@ fn move_busy_movers_in_parallel(
     let batch_of_thread = || batches_ref.borrow_local_mut();
     moved
         .par_iter()
-        .batching_strategy(uneven_work_batches())
+        .batching_strategy(uneven_work_batches(dynamic_entities))
         .for_each_init(batch_of_thread, |batch, (entity, aabb, gt, marked)| {
             if require_marker && !marked {
                 return;

@@ -73,9 +73,10 @@ pub(crate) fn flat_pass(
     no_cpu_culling_view: bool,
     verdicts: Option<TreeVerdicts<'_>>,
 ) -> (usize, usize, usize) {
+    let population = candidates.iter().len();
     candidates
         .par_iter_mut()
-        .batching_strategy(uneven_work_batches())
+        .batching_strategy(uneven_work_batches(population))
         .for_each_init(
             || tallies.borrow_local_mut(),
             |tally, item| {
