@@ -138,6 +138,7 @@ fn check(layout: Layout, frames: usize) -> App {
     let mut most_busy = 0;
     let mut flat_views = 0;
     let mut decided_in_parts = 0;
+    let mut kept_tree_walks = 0;
     for frame in 0..frames {
         bevy_app.update();
         accel_app.update();
@@ -156,12 +157,19 @@ fn check(layout: Layout, frames: usize) -> App {
         let culling = accel_app.world().resource::<CullingStats>();
         flat_views += culling.flat_views;
         decided_in_parts += culling.views_decided_in_parts;
+        kept_tree_walks += culling.kept_tree_walks;
     }
     assert!(most_busy > 16_384, "{most_busy} busy movers at most");
     assert!(flat_views > 0, "the wide view never took the flat pass");
     assert!(
         decided_in_parts > 0,
         "the narrow view's finds were never decided in parts"
+    );
+    // The cameras hold still while only busy movers move, in most frames: the narrow view
+    // keeps its finds in the trees and tests the busy movers again.
+    assert!(
+        kept_tree_walks > 0,
+        "the narrow view never kept its trees' finds"
     );
     accel_app
 }

@@ -43,30 +43,48 @@ pub(crate) enum WalkedLayers {
     /// The static tree and the dynamic index, not the busy movers: for a walk whose finds
     /// among them would be thrown away (the flat pass gives every busy mover Bevy's test).
     TreesOnly,
+    /// The busy movers alone: for a view whose finds in the static tree and the dynamic
+    /// index still hold (neither changed since they were walked).
+    BusyMoversOnly,
 }
 
-/// Calls `visit(slot, containment)` for each slot whose tree box the frustum does not drop,
-/// with `Inside` where a whole subtree was accepted ([`classify_for_bevy`] at every node).
-/// The busy movers (with [`WalkedLayers::All`]) come last; when they are many and the compute
-/// pool has more than one thread, they are tested on the pool while this thread walks the
-/// trees.
+/// Where a walk found a slot: the busy movers' finds always come after the trees'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FoundIn {
+    /// The static tree or the dynamic index.
+    Trees,
+    /// The busy movers' list.
+    BusyMovers,
+}
+
+/// Calls `visit(layer, slot, containment)` for each slot whose tree box the frustum does not
+/// drop, with `Inside` where a whole subtree was accepted ([`classify_for_bevy`] at every
+/// node). The busy movers come last; when they are many and the compute pool has more than
+/// one thread, they are tested on the pool while this thread walks the trees.
 pub(crate) fn walk_frustum_for_bevy(
     trees: &AccelTrees,
     frustum: &Frustum,
     layers: WalkedLayers,
-    mut visit: impl FnMut(u32, Containment),
+    mut visit: impl FnMut(FoundIn, u32, Containment),
 ) {
     let frustum = &FrustumLanes::new(frustum);
     let busy = trees.query().busy_movers();
     let chunks = match layers {
-        WalkedLayers::All => busy.chunk_count(),
+        WalkedLayers::All | WalkedLayers::BusyMoversOnly => busy.chunk_count(),
         WalkedLayers::TreesOnly => 0,
     };
+    let walk_trees = layers != WalkedLayers::BusyMoversOnly;
     let pool = ComputeTaskPool::try_get()
         .filter(|pool| pool.thread_num() > 1 && chunks * CHUNK_LEN >= CONCURRENT_BUSY_FROM);
     let Some(pool) = pool else {
-        walk_trees_for_bevy(trees, frustum, &mut visit);
-        busy_movers_for_bevy(busy, 0..chunks, frustum, &mut visit);
+        if walk_trees {
+            walk_trees_for_bevy(trees, frustum, &mut |slot, c| {
+                visit(FoundIn::Trees, slot, c)
+            });
+        }
+        busy_movers_for_bevy(busy, 0..chunks, frustum, &mut |slot, c| {
+            visit(FoundIn::BusyMovers, slot, c);
+        });
         return;
     };
     // Why: the trees' walk and the busy movers' tests are independent, and each is a serial
@@ -87,10 +105,14 @@ pub(crate) fn walk_frustum_for_bevy(
                 found
             });
         }
-        walk_trees_for_bevy(trees, frustum, &mut visit);
+        if walk_trees {
+            walk_trees_for_bevy(trees, frustum, &mut |slot, c| {
+                visit(FoundIn::Trees, slot, c)
+            });
+        }
     });
     for (slot, containment) in parts.into_iter().flatten() {
-        visit(slot, containment);
+        visit(FoundIn::BusyMovers, slot, containment);
     }
 }
 

@@ -166,6 +166,46 @@ impl FoundSlots {
     }
 }
 
+/// Two runs of keys in slot order, read as one list: a view's finds in the static tree and
+/// the dynamic index, then its finds among the busy movers. Why two runs, not one sorted
+/// list: the trees' run is kept across frames in which only busy movers moved, and only the
+/// busy movers' run is made again (see `ViewWalk`); the runs hold disjoint slots.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct KeyRuns<'a> {
+    pub(crate) first: &'a [SlotKey],
+    pub(crate) second: &'a [SlotKey],
+}
+
+impl<'a> KeyRuns<'a> {
+    /// Keys in both runs.
+    #[inline]
+    pub(crate) fn len(&self) -> usize {
+        self.first.len() + self.second.len()
+    }
+
+    /// The `i`th key of the runs read as one list.
+    #[inline]
+    pub(crate) fn get(&self, i: usize) -> Option<SlotKey> {
+        match self.first.get(i) {
+            Some(key) => Some(*key),
+            None => self.second.get(i - self.first.len()).copied(),
+        }
+    }
+
+    /// The keys `range` of the runs read as one list.
+    pub(crate) fn slice(&self, range: core::ops::Range<usize>) -> KeyRuns<'a> {
+        let split = self.first.len();
+        let first = &self.first[range.start.min(split)..range.end.min(split)];
+        let second = &self.second[range.start.max(split) - split..range.end.max(split) - split];
+        KeyRuns { first, second }
+    }
+
+    /// The keys in order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = SlotKey> + 'a {
+        self.first.iter().chain(self.second).copied()
+    }
+}
+
 /// Prefetches `by_slot[slot]`, if there is one.
 #[inline(always)]
 pub(crate) fn prefetch_entry<T>(by_slot: &[T], slot: u32) {
@@ -176,7 +216,7 @@ pub(crate) fn prefetch_entry<T>(by_slot: &[T], slot: u32) {
 
 #[cfg(test)]
 mod tests {
-    use super::FoundSlots;
+    use super::{FoundSlots, KeyRuns};
     use bevy::prelude::Entity;
 
     /// The slots found as `(slot, exact)`, in ascending slot order; then forgets them.
@@ -215,6 +255,38 @@ mod tests {
                 for &(slot, exact) in &expected {
                     found.push(slot, exact);
                 }
+            }
+        }
+    }
+
+    /// Two runs read as one list, whole and in every slice.
+    #[test]
+    fn key_runs_read_as_one_list() {
+        let mut trees = FoundSlots::default();
+        let mut busy = FoundSlots::default();
+        for slot in [40u32, 3, 17] {
+            trees.push(slot, slot == 3);
+        }
+        for slot in [9u32, 2] {
+            busy.push(slot, false);
+        }
+        let runs = KeyRuns {
+            first: trees.sorted_keys(64),
+            second: busy.sorted_keys(64),
+        };
+        let all: Vec<u32> = runs.iter().map(|k| k.slot()).collect();
+        assert_eq!(all, [3, 17, 40, 2, 9]);
+        assert_eq!(runs.len(), 5);
+        for start in 0..=5 {
+            for end in start..=5 {
+                let part = runs.slice(start..end);
+                let got: Vec<u32> = part.iter().map(|k| k.slot()).collect();
+                assert_eq!(got, all[start..end], "{start}..{end}");
+                assert_eq!(part.len(), end - start);
+                for i in 0..part.len() {
+                    assert_eq!(part.get(i).map(|k| k.slot()), Some(all[start + i]));
+                }
+                assert_eq!(part.get(part.len()), None);
             }
         }
     }

@@ -29,6 +29,10 @@ pub struct CullingStats {
     /// Views whose tree walk was reused from the last frame, because neither their frustum
     /// nor the trees had changed (the entities found are still decided one by one).
     pub reused_walks: usize,
+    /// Views whose walk of the static tree and the dynamic index was kept from the last
+    /// frame because only busy movers had moved since: the busy movers alone were tested
+    /// again.
+    pub kept_tree_walks: usize,
     /// Views on the tree path whose entities proved inside were many enough to be decided in
     /// parts on the compute task pool.
     pub views_decided_in_parts: usize,

@@ -7,7 +7,7 @@ use super::table_rows::{
 use super::view_pass::ViewPass;
 use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::ClassLists;
-use crate::culling::slot_order::{LOOKUP_AHEAD, SlotKey, prefetch_entry};
+use crate::culling::slot_order::{KeyRuns, LOOKUP_AHEAD, prefetch_entry};
 use bevy::camera::visibility::SetViewVisibility;
 use bevy::ecs::entity::Entities;
 use bevy::prelude::*;
@@ -29,23 +29,39 @@ const MIN_PART: usize = 1_024;
 const ROWS_AHEAD: usize = 16;
 
 /// A fresh walk's finds, to be turned into the view's list of [`FoundEntity`] as they are
-/// decided.
+/// decided: the whole list, or its tail after the finds kept from the last frame.
+#[derive(Clone, Copy)]
 pub(crate) struct FreshFinds<'a> {
-    /// The walk's finds, in slot order
+    /// The walk's finds, each run in slot order
     /// ([`FoundSlots::sorted_keys`](crate::culling::slot_order::FoundSlots::sorted_keys)).
-    pub(crate) keys: &'a [SlotKey],
+    pub(crate) keys: KeyRuns<'a>,
+    /// Where in the view's list they go: the entries before are kept.
+    pub(crate) from: usize,
     /// [`AccelTrees::slot_entities`](crate::AccelTrees::slot_entities).
     pub(crate) slot_entities: &'a [Option<Entity>],
     pub(crate) slot_rows: &'a SlotRows,
+}
+
+impl<'a> FreshFinds<'a> {
+    /// The finds that go into `range` of the view's list, with where in the range they
+    /// start; `None` if the range is all kept entries.
+    fn within(&self, range: core::ops::Range<usize>) -> Option<(usize, FreshFinds<'a>)> {
+        let start = range.start.max(self.from);
+        let end = range.end.min(self.from + self.keys.len());
+        (start < end).then(|| {
+            let keys = self.keys.slice(start - self.from..end - self.from);
+            (start - range.start, FreshFinds { keys, ..*self })
+        })
+    }
 }
 
 /// Decides what a view's walk found, by Bevy's rules: the entities a tree proved inside
 /// without a frustum test, those whose leaf crosses a plane with it. Sets `ViewVisibility`,
 /// fills the pass's lists in `found`'s order and counts into its stats.
 ///
-/// With `fresh` finds, `found` is first rebuilt from them (in the same parallel parts as the
-/// decisions: why, see [`decide_list`]); without, the list kept from the last frame is decided
-/// again. Row hints in `found` that no longer held are replaced; returns how many.
+/// With `fresh` finds, `found` is first rebuilt from them from `fresh.from` on (in the same
+/// parallel parts as the decisions: why, see [`decide_list`]); the entries before, and the
+/// whole list without, are those kept from the last frame, decided again. Row hints in `found` that no longer held are replaced; returns how many.
 ///
 /// `part_lists` holds one list set per part between calls, so that their memory is reused.
 pub(crate) fn decide_found(
@@ -58,7 +74,7 @@ pub(crate) fn decide_found(
     if let Some(fresh) = &fresh {
         // Sized without clearing: every entry is overwritten by the fill, so only a longer
         // list than last frame's writes its new tail twice.
-        found.resize(fresh.keys.len(), FoundEntity::VACANT);
+        found.resize(fresh.from + fresh.keys.len(), FoundEntity::VACANT);
     }
     let bounds = BoundsColumns::gather(pass.bounds, entities);
     let (Some(columns), Some(bounds)) = (
@@ -66,7 +82,7 @@ pub(crate) fn decide_found(
         &bounds,
     ) else {
         if let Some(fresh) = &fresh {
-            fill_from_keys(found, fresh);
+            fill_from_keys(&mut found[fresh.from..], fresh);
         }
         decide_by_lookup(pass, found);
         return 0;
@@ -99,9 +115,9 @@ struct Decider<'a, 'q> {
     entities: &'a Entities,
 }
 
-/// Decides `list` (entities a walk found, each at most once, in slot order), filling `lists`
-/// in list order. With `fresh` finds (as long as `list`), each part first fills its share of
-/// `list` from its share of the keys.
+/// Decides `list` (entities a walk found, each at most once, in runs of slot order), filling
+/// `lists` in list order. With `fresh` finds (as many as `list` holds from `fresh.from` on),
+/// each part first fills its share of that tail from its share of the keys.
 ///
 /// From [`PARALLEL_FROM`] entities, and when Bevy's compute task pool exists, the list is
 /// decided in contiguous parts on the pool, and each part's visible entities are appended to
@@ -130,6 +146,7 @@ fn decide_list(
         PARALLEL_FROM
     };
     let (Some(pool), true) = (pool, list.len() >= from && parts >= 2) else {
+        let fresh = fresh.and_then(|f| f.within(0..list.len()));
         let tally = decide_part(decider, list, fresh, lists);
         return (tally, false);
     };
@@ -144,11 +161,9 @@ fn decide_list(
             .enumerate()
         {
             // The same boundaries over the keys as over the list.
-            let fresh = fresh.map(|f| FreshFinds {
-                keys: &f.keys[i * part_len..i * part_len + part.len()],
-                ..*f
-            });
-            scope.spawn(async move { decide_part(decider, part, fresh.as_ref(), part_lists) });
+            let start = i * part_len;
+            let fresh = fresh.and_then(|f| f.within(start..start + part.len()));
+            scope.spawn(async move { decide_part(decider, part, fresh, part_lists) });
         }
     });
     for part in part_lists.iter_mut() {
@@ -161,11 +176,11 @@ fn decide_list(
 }
 
 /// One part, in order, each entity's rows prefetched [`ROWS_AHEAD`] entities earlier; with
-/// `fresh` finds, the part is first filled from them.
+/// `fresh` finds (and where in the part they start), the part is first filled from them.
 fn decide_part(
     decider: Decider<'_, '_>,
     part: &mut [FoundEntity],
-    fresh: Option<&FreshFinds<'_>>,
+    fresh: Option<(usize, FreshFinds<'_>)>,
     lists: &mut ClassLists,
 ) -> DecideTally {
     let Decider {
@@ -174,8 +189,8 @@ fn decide_part(
         exact,
         entities,
     } = decider;
-    if let Some(fresh) = fresh {
-        fill_from_keys(part, fresh);
+    if let Some((at, fresh)) = fresh {
+        fill_from_keys(&mut part[at..], &fresh);
     }
     let mut tally = DecideTally::default();
     for i in 0..part.len() {
@@ -195,7 +210,7 @@ fn decide_part(
 /// world's slot arrays (a view's slab of a grid is a few slots of every row), too far apart
 /// for the hardware prefetcher; waiting on each lookup was most of the ordering's time.
 fn fill_from_keys(part: &mut [FoundEntity], fresh: &FreshFinds<'_>) {
-    for (i, (item, key)) in part.iter_mut().zip(fresh.keys).enumerate() {
+    for (i, (item, key)) in part.iter_mut().zip(fresh.keys.iter()).enumerate() {
         if let Some(ahead) = fresh.keys.get(i + LOOKUP_AHEAD) {
             prefetch_entry(fresh.slot_entities, ahead.slot());
             fresh.slot_rows.prefetch(ahead.slot());

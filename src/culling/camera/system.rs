@@ -5,11 +5,11 @@ use super::found_pass::{FreshFinds, decide_found};
 use super::table_rows::SlotRows;
 use super::tree_verdicts::TreeVerdicts;
 use super::view_pass::{BoundsItem, DecideFilter, DecideItem, ViewPass};
-use super::view_walk::{ViewWalk, WalkForm};
-use crate::culling::bevy_rounding::{WalkedLayers, tree_plane, walk_frustum_for_bevy};
+use super::view_walk::{ViewWalk, WalkForm, WalkStill};
+use crate::culling::bevy_rounding::{FoundIn, WalkedLayers, tree_plane, walk_frustum_for_bevy};
 use crate::culling::bevy_rules::ViewFilter;
 use crate::culling::class_lists::{ClassLists, sort_visible};
-use crate::culling::slot_order::FoundSlots;
+use crate::culling::slot_order::{FoundSlots, KeyRuns};
 use crate::culling::stats::CullingStats;
 use crate::culling::untracked::UntrackedEntities;
 use crate::trees::AccelTrees;
@@ -75,7 +75,10 @@ pub(crate) struct CullingInputs<'w, 's> {
 pub(crate) struct CullingMemory {
     tallies: Parallel<FlatTally>,
     visible_fraction: EntityHashMap<f32>,
+    /// A fresh walk's finds in the static tree and the dynamic index.
     found: FoundSlots,
+    /// A fresh walk's finds among the busy movers.
+    found_busy: FoundSlots,
     walks: EntityHashMap<ViewWalk>,
     class_lists: ClassLists,
     part_lists: Vec<ClassLists>,
@@ -103,6 +106,7 @@ pub(crate) fn cull_views_with_trees(
         tallies,
         visible_fraction,
         found,
+        found_busy,
         walks,
         class_lists,
         part_lists,
@@ -121,7 +125,7 @@ pub(crate) fn cull_views_with_trees(
     if index_changed {
         walks.values_mut().for_each(ViewWalk::forget);
     } else if trees_changed {
-        walks.values_mut().for_each(ViewWalk::forget_unless_bits);
+        walks.values_mut().for_each(ViewWalk::forget_busy_movers);
     }
     for (view, mut visible_entities, frustum, view_layers, camera, no_cpu_culling_view) in
         &mut views
@@ -148,7 +152,7 @@ pub(crate) fn cull_views_with_trees(
             let verdicts = use_trees.then(|| {
                 let planes = tree_planes(frustum);
                 let walk = walks.entry(view).or_default();
-                if walk.walked(&planes, WalkForm::Bits) {
+                if walk.still(&planes, WalkForm::Bits) == WalkStill::Holds {
                     s.reused_walks += 1;
                 } else {
                     walk.restart(planes, WalkForm::Bits);
@@ -158,7 +162,7 @@ pub(crate) fn cull_views_with_trees(
                         &trees,
                         &AccelFrustum::from_planes(planes),
                         WalkedLayers::TreesOnly,
-                        |slot, containment| match containment {
+                        |_, slot, containment| match containment {
                             Containment::Inside => walk.inside_bits.insert(slot),
                             _ => walk.crossing_bits.insert(slot),
                         },
@@ -220,22 +224,50 @@ pub(crate) fn cull_views_with_trees(
         } else {
             let planes = tree_planes(frustum);
             let walk = walks.entry(view).or_default();
-            let fresh = if walk.walked(&planes, WalkForm::Lists) {
+            let still = walk.still(&planes, WalkForm::Lists);
+            let fresh = if still == WalkStill::Holds {
                 pass.stats.reused_walks += 1;
                 None
             } else {
                 // The tree finds entities in spatial order, which is random in the ECS
                 // tables; they are decided in slot order instead (see `FoundSlots`).
-                walk.restart(planes, WalkForm::Lists);
+                let layers = if still == WalkStill::HoldsInTrees {
+                    pass.stats.kept_tree_walks += 1;
+                    WalkedLayers::BusyMoversOnly
+                } else {
+                    walk.restart(planes, WalkForm::Lists);
+                    WalkedLayers::All
+                };
                 found.clear();
+                found_busy.clear();
                 walk_frustum_for_bevy(
                     &trees,
                     &AccelFrustum::from_planes(planes),
-                    WalkedLayers::All,
-                    |slot, containment| found.push(slot, containment != Containment::Inside),
+                    layers,
+                    |layer, slot, containment| {
+                        let exact = containment != Containment::Inside;
+                        match layer {
+                            FoundIn::Trees => found.push(slot, exact),
+                            FoundIn::BusyMovers => found_busy.push(slot, exact),
+                        }
+                    },
                 );
+                let slots = trees.slot_entities().len();
+                let keys = KeyRuns {
+                    first: found.sorted_keys(slots),
+                    second: found_busy.sorted_keys(slots),
+                };
+                if layers == WalkedLayers::All {
+                    walk.found_in_trees = keys.first.len();
+                }
+                walk.busy_movers_walked();
                 Some(FreshFinds {
-                    keys: found.sorted_keys(trees.slot_entities().len()),
+                    keys,
+                    from: if layers == WalkedLayers::All {
+                        0
+                    } else {
+                        walk.found_in_trees
+                    },
                     slot_entities: trees.slot_entities(),
                     slot_rows,
                 })

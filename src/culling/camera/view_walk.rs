@@ -10,16 +10,25 @@ use bevy::math::Vec4;
 /// frustum nor the trees changed since the last frame they would find the same entities in
 /// the same order. Only the walk is kept: every entity is still decided each frame (its
 /// visibility, layers and range can change without the trees changing), as Bevy requires
-/// `ViewVisibility` to be set again every frame.
+/// `ViewVisibility` to be set again every frame. When only busy movers moved (the index held
+/// still), the finds in the static tree and the dynamic index still hold, and only the busy
+/// movers are tested again: a still camera over a world of a few busy movers would otherwise
+/// walk and sort its whole view each frame.
 #[derive(Default)]
 pub(crate) struct ViewWalk {
     /// The planes walked, compared bit for bit.
     planes: Option<[Vec4; 6]>,
     /// The form the finds were kept in.
     form: WalkForm,
-    /// The entities found, in slot order, with their row hints and whether their leaf
-    /// crosses a plane ([`WalkForm::Lists`]).
+    /// The entities found, with their row hints and whether their leaf crosses a plane
+    /// ([`WalkForm::Lists`]): the first [`Self::found_in_trees`] from the static tree and
+    /// the dynamic index, then the busy movers', each run in slot order.
     pub(crate) found: Vec<FoundEntity>,
+    /// How many of `found` the static tree and the dynamic index gave.
+    pub(crate) found_in_trees: usize,
+    /// Whether the busy movers' finds are of their current boxes ([`WalkForm::Lists`]; a
+    /// walk in bit form never holds busy movers).
+    busy_movers_current: bool,
     /// Tree slots a tree proved inside ([`WalkForm::Bits`]).
     pub(crate) inside_bits: SlotBits,
     /// Tree slots whose leaf crosses a plane ([`WalkForm::Bits`]).
@@ -36,16 +45,33 @@ pub(crate) enum WalkForm {
     Bits,
 }
 
+/// What of a view's last walk still holds for a frustum.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum WalkStill {
+    /// All of it: the same planes in the same form, and nothing it found changed since.
+    Holds,
+    /// The finds in the static tree and the dynamic index, not the busy movers' (they
+    /// moved; the index did not).
+    HoldsInTrees,
+    /// Nothing: another frustum or form, or the index changed. Walk afresh.
+    Stale,
+}
+
 impl ViewWalk {
     /// Whether this walk was of exactly these planes, kept in this form (and has not been
-    /// forgotten).
-    pub(crate) fn walked(&self, planes: &[Vec4; 6], form: WalkForm) -> bool {
-        self.form == form
+    /// forgotten), and with what of it still holds.
+    pub(crate) fn still(&self, planes: &[Vec4; 6], form: WalkForm) -> WalkStill {
+        let same = self.form == form
             && self.planes.is_some_and(|p| {
                 p.iter()
                     .zip(planes)
                     .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
-            })
+            });
+        match (same, self.busy_movers_current) {
+            (false, _) => WalkStill::Stale,
+            (true, true) => WalkStill::Holds,
+            (true, false) => WalkStill::HoldsInTrees,
+        }
     }
 
     /// Starts a new walk of `planes`, kept in `form`: forgets what the last one found.
@@ -54,22 +80,28 @@ impl ViewWalk {
     pub(crate) fn restart(&mut self, planes: [Vec4; 6], form: WalkForm) {
         self.planes = Some(planes);
         self.form = form;
+        self.found_in_trees = 0;
+        self.busy_movers_current = true;
         self.inside_bits.clear();
         self.crossing_bits.clear();
     }
 
-    /// Forgets the walk (the trees changed).
+    /// Notes that the busy movers' finds were made again, for their current boxes.
+    pub(crate) fn busy_movers_walked(&mut self) {
+        self.busy_movers_current = true;
+    }
+
+    /// Forgets the walk (the index changed).
     pub(crate) fn forget(&mut self) {
         self.planes = None;
     }
 
-    /// Forgets the walk unless it is kept as sets for the flat pass: for a frame in which
-    /// only the busy movers changed. The sets' verdicts hold for every entity the index
-    /// holds, since the index did not change, and the flat pass asks none of busy movers
-    /// (see `TreeVerdicts`).
-    pub(crate) fn forget_unless_bits(&mut self) {
-        if self.form != WalkForm::Bits {
-            self.forget();
+    /// Forgets the busy movers' finds: for a frame in which only the busy movers changed.
+    /// The finds in the index hold, since it did not change. A walk in bit form holds none
+    /// (the flat pass asks no verdict of busy movers, see `TreeVerdicts`).
+    pub(crate) fn forget_busy_movers(&mut self) {
+        if self.form == WalkForm::Lists {
+            self.busy_movers_current = false;
         }
     }
 }
@@ -108,26 +140,46 @@ impl SlotBits {
 
 #[cfg(test)]
 mod tests {
-    use super::{SlotBits, ViewWalk, WalkForm};
+    use super::{SlotBits, ViewWalk, WalkForm, WalkStill};
     use bevy::math::Vec4;
 
     #[test]
     fn matches_only_the_same_planes_and_form_until_forgotten() {
         let planes = [Vec4::new(1.0, 0.0, 0.0, 2.0); 6];
         let mut walk = ViewWalk::default();
-        assert!(!walk.walked(&planes, WalkForm::Lists));
+        assert_eq!(walk.still(&planes, WalkForm::Lists), WalkStill::Stale);
         walk.restart(planes, WalkForm::Lists);
-        assert!(walk.walked(&planes, WalkForm::Lists));
-        assert!(!walk.walked(&planes, WalkForm::Bits));
+        assert_eq!(walk.still(&planes, WalkForm::Lists), WalkStill::Holds);
+        assert_eq!(walk.still(&planes, WalkForm::Bits), WalkStill::Stale);
         let mut moved = planes;
         moved[3].w = f32::from_bits(2.0f32.to_bits() + 1);
-        assert!(!walk.walked(&moved, WalkForm::Lists));
+        assert_eq!(walk.still(&moved, WalkForm::Lists), WalkStill::Stale);
         // -0.0 == 0.0, but a frustum built from other numbers is another walk.
         let mut signed = planes;
         signed[0].y = -0.0;
-        assert!(!walk.walked(&signed, WalkForm::Lists));
+        assert_eq!(walk.still(&signed, WalkForm::Lists), WalkStill::Stale);
         walk.forget();
-        assert!(!walk.walked(&planes, WalkForm::Lists));
+        assert_eq!(walk.still(&planes, WalkForm::Lists), WalkStill::Stale);
+    }
+
+    #[test]
+    fn busy_movers_are_forgotten_alone_and_only_in_list_form() {
+        let planes = [Vec4::new(0.0, 1.0, 0.0, 3.0); 6];
+        let mut walk = ViewWalk::default();
+        walk.restart(planes, WalkForm::Lists);
+        walk.forget_busy_movers();
+        assert_eq!(
+            walk.still(&planes, WalkForm::Lists),
+            WalkStill::HoldsInTrees
+        );
+        walk.busy_movers_walked();
+        assert_eq!(walk.still(&planes, WalkForm::Lists), WalkStill::Holds);
+        walk.forget_busy_movers();
+        walk.restart(planes, WalkForm::Bits);
+        walk.forget_busy_movers();
+        assert_eq!(walk.still(&planes, WalkForm::Bits), WalkStill::Holds);
+        walk.forget();
+        assert_eq!(walk.still(&planes, WalkForm::Bits), WalkStill::Stale);
     }
 
     #[test]
