@@ -13,7 +13,8 @@
 
 use crate::trees::AccelTrees;
 use bevy::math::{Vec3A, Vec4};
-use bevy::tasks::{ComputeTaskPool, TaskPool};
+use bevy::tasks::ComputeTaskPool;
+use core::ops::Range;
 use spatial_accel::query::views::ViewClassification;
 use spatial_accel::query::{CHUNK_LEN, KeyedList};
 use spatial_accel::{Aabb, Containment, Frustum, FrustumLanes};
@@ -73,51 +74,43 @@ pub(crate) fn walk_frustum_for_bevy(
         WalkedLayers::TreesOnly => 0,
     };
     let walk_trees = layers != WalkedLayers::BusyMoversOnly;
-    let pool = ComputeTaskPool::try_get().filter(|pool| pool.thread_num() > 1);
-    let mut visit_trees = |slot, c| visit(FoundIn::Trees, slot, c);
-    let parts = match pool {
-        // Why: the trees' walk and the busy movers' tests are independent, and each is a
-        // serial loop; a view that waits for both in turn does not get faster with threads,
-        // where Bevy's own loop does (issue 72). The scope's body walks the trees on this
-        // thread while the pool's other threads take the movers' parts.
-        Some(pool) if walk_trees && chunks * CHUNK_LEN >= CONCURRENT_BUSY_FROM => {
-            busy_movers_on_pool(
-                pool,
-                busy,
-                frustum,
-                chunks,
-                |i| i,
-                || {
-                    walk_trees_for_bevy(trees, frustum, &mut visit_trees);
-                },
-            )
-        }
-        // With no walk to overlap, the tasks must pay for themselves by splitting the tests
-        // alone, and what the tests cost is the chunks the frustum does not drop whole: a
-        // field of movers wobbling in place drops nearly all, cars crossing a city none.
-        Some(pool) if !walk_trees && chunks * CHUNK_LEN >= SPLIT_BUSY_ALONE_FROM => {
-            let live: Vec<usize> = (0..chunks)
-                .filter(|&c| !chunk_dropped(busy, c, frustum))
-                .collect();
-            if live.len() * CHUNK_LEN >= SPLIT_BUSY_ALONE_FROM {
-                busy_movers_on_pool(pool, busy, frustum, live.len(), |i| live[i], || {})
-            } else {
-                busy_movers_for_bevy(busy, live.into_iter(), frustum, &mut |slot, c| {
-                    visit(FoundIn::BusyMovers, slot, c);
-                });
-                return;
-            }
-        }
-        _ => {
-            if walk_trees {
-                walk_trees_for_bevy(trees, frustum, &mut visit_trees);
-            }
-            busy_movers_for_bevy(busy, 0..chunks, frustum, &mut |slot, c| {
-                visit(FoundIn::BusyMovers, slot, c);
+    let pool = ComputeTaskPool::try_get()
+        .filter(|pool| pool.thread_num() > 1 && chunks * CHUNK_LEN >= CONCURRENT_BUSY_FROM);
+    let Some(pool) = pool else {
+        if walk_trees {
+            walk_trees_for_bevy(trees, frustum, &mut |slot, c| {
+                visit(FoundIn::Trees, slot, c)
             });
-            return;
         }
+        busy_movers_for_bevy(busy, 0..chunks, frustum, &mut |slot, c| {
+            visit(FoundIn::BusyMovers, slot, c);
+        });
+        return;
     };
+    // Why: the trees' walk and the busy movers' tests are independent, and each is a serial
+    // loop; a view that waits for both in turn does not get faster with threads, where Bevy's
+    // own loop does (issue 72). The scope's body walks the trees on this thread while the
+    // pool's other threads take the movers' parts.
+    let part = chunks
+        .div_ceil(pool.thread_num() * 4)
+        .max(CONCURRENT_BUSY_FROM / 4 / CHUNK_LEN);
+    let parts: Vec<Vec<(u32, Containment)>> = pool.scope(|scope| {
+        for from in (0..chunks).step_by(part) {
+            scope.spawn(async move {
+                let mut found = Vec::new();
+                let to = (from + part).min(chunks);
+                busy_movers_for_bevy(busy, from..to, frustum, &mut |id, containment| {
+                    found.push((id, containment));
+                });
+                found
+            });
+        }
+        if walk_trees {
+            walk_trees_for_bevy(trees, frustum, &mut |slot, c| {
+                visit(FoundIn::Trees, slot, c)
+            });
+        }
+    });
     for (slot, containment) in parts.into_iter().flatten() {
         visit(FoundIn::BusyMovers, slot, containment);
     }
@@ -127,80 +120,31 @@ pub(crate) fn walk_frustum_for_bevy(
 /// on the pool beside its walk of the trees.
 const CONCURRENT_BUSY_FROM: usize = 4_096;
 
-/// From this many busy movers in chunks a view does not drop, with more than one compute
-/// thread, a view that tests only them (its finds in the trees still hold) splits the tests
-/// across the pool.
-const SPLIT_BUSY_ALONE_FROM: usize = 16_384;
-
-/// Chunks in a block of the busy movers' parts on the pool (256 movers).
-const BLOCK_CHUNKS: usize = 4;
-
-/// Blocks a part holds at least (a thousand movers): a task costs a spawn.
-const MIN_TASK_BLOCKS: usize = 4;
-
-/// Whether the frustum drops chunk `c` of the busy movers whole (its bounds are current and
-/// outside): the verdict on a box is monotone (a box inside a dropped box is dropped, in
-/// `f32` too), and the growth past rounding only grows with the box.
-#[inline]
-fn chunk_dropped(busy: &KeyedList, c: usize, frustum: &FrustumLanes) -> bool {
-    busy.chunk(c)
-        .bounds
-        .is_some_and(|b| classify_for_bevy(frustum, b) == Containment::Outside)
-}
-
 /// The busy movers of `chunks` the frustum does not drop, as [`walk_frustum_for_bevy`] gives
-/// them, skipping each chunk it drops whole.
+/// them. A chunk whose bounds the frustum drops is skipped whole: the verdict on a box is
+/// monotone (a box inside a dropped box is dropped, in `f32` too), and the growth past
+/// rounding only grows with the box.
 fn busy_movers_for_bevy(
     busy: &KeyedList,
-    chunks: impl Iterator<Item = usize>,
+    chunks: Range<usize>,
     frustum: &FrustumLanes,
     visit: &mut impl FnMut(u32, Containment),
 ) {
     for c in chunks {
-        if chunk_dropped(busy, c, frustum) {
+        let chunk = busy.chunk(c);
+        if chunk
+            .bounds
+            .is_some_and(|b| classify_for_bevy(frustum, b) == Containment::Outside)
+        {
             continue;
         }
-        for entry in busy.chunk(c).entries {
+        for entry in chunk.entries {
             match classify_for_bevy(frustum, &entry.bounds) {
                 Containment::Outside => {}
                 containment => visit(entry.id, containment),
             }
         }
     }
-}
-
-/// The busy movers' tests of `count` chunks (the `i`th is chunk `chunk_at(i)`) on `pool`,
-/// while this thread runs `beside`; the finds of each task, in no particular order (they are
-/// sorted by slot). The tasks deal small blocks of chunks round: movers spawned together sit
-/// in neighbouring chunks, so the chunks a view does not drop are a few runs, and parts cut
-/// as ranges would give nearly all of them to one task.
-fn busy_movers_on_pool(
-    pool: &TaskPool,
-    busy: &KeyedList,
-    frustum: &FrustumLanes,
-    count: usize,
-    chunk_at: impl Fn(usize) -> usize + Sync,
-    beside: impl FnOnce(),
-) -> Vec<Vec<(u32, Containment)>> {
-    let blocks = count.div_ceil(BLOCK_CHUNKS);
-    let tasks = (pool.thread_num() * 2)
-        .min(blocks.div_ceil(MIN_TASK_BLOCKS))
-        .max(1);
-    let chunk_at = &chunk_at;
-    pool.scope(|scope| {
-        for task in 0..tasks {
-            scope.spawn(async move {
-                let mut found = Vec::new();
-                let dealt = (task..blocks)
-                    .step_by(tasks)
-                    .flat_map(|b| b * BLOCK_CHUNKS..((b + 1) * BLOCK_CHUNKS).min(count))
-                    .map(chunk_at);
-                busy_movers_for_bevy(busy, dealt, frustum, &mut |id, c| found.push((id, c)));
-                found
-            });
-        }
-        beside();
-    })
 }
 
 /// The static tree and the dynamic index: [`walk_frustum_for_bevy`] without the busy movers.

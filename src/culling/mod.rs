@@ -10,9 +10,7 @@
 //! wholly in or out of view. Both spread their per-entity work over Bevy's compute task pool,
 //! as Bevy's own loop does: the flat pass always; the tree path's decisions from 2,048
 //! entities found when the pool has several threads (8,192 on one), and its test of the
-//! busy movers, from 4,096 of them, on the pool's other threads while it walks the trees (a
-//! view whose finds in the trees still hold tests only the busy movers, split across the pool
-//! from 16,384 in chunks of the list it does not drop whole).
+//! busy movers, from 4,096 of them, on the pool's other threads while it walks the trees.
 //! The tree path reads the components it decides by straight from
 //! Bevy's table columns, at the row each entity was last seen in (checked against the
 //! table's entity column), instead of looking each entity up.
