@@ -62,10 +62,13 @@ impl FlatTally {
 }
 
 /// Runs the flat pass for one view: Bevy's rules for every entity, its frustum test where
-/// `verdicts` (when given) cannot settle it. Returns the summed tallies' counts as
+/// `verdicts` (when given) cannot settle it. `population` is how many entities `candidates`
+/// holds (it sizes the batches). Returns the summed tallies' counts as
 /// `(visible, tested, accepted)`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn flat_pass(
     candidates: &mut Query<CandidateItem, Without<NoCpuCulling>>,
+    population: usize,
     tallies: &mut Parallel<FlatTally>,
     visible_entities: &mut VisibleEntities,
     filter: ViewFilter<'_>,
@@ -73,7 +76,6 @@ pub(crate) fn flat_pass(
     no_cpu_culling_view: bool,
     verdicts: Option<TreeVerdicts<'_>>,
 ) -> (usize, usize, usize) {
-    let population = candidates.iter().len();
     candidates
         .par_iter_mut()
         .batching_strategy(uneven_work_batches(population))

@@ -61,7 +61,8 @@ impl<'a> FreshFinds<'a> {
 ///
 /// With `fresh` finds, `found` is first rebuilt from them from `fresh.from` on (in the same
 /// parallel parts as the decisions: why, see [`decide_list`]); the entries before, and the
-/// whole list without, are those kept from the last frame, decided again. Row hints in `found` that no longer held are replaced; returns how many.
+/// whole list without, are those kept from the last frame, decided again. Row hints in
+/// `found` that no longer held are replaced; returns how many.
 ///
 /// `part_lists` holds one list set per part between calls, so that their memory is reused.
 pub(crate) fn decide_found(

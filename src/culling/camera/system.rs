@@ -174,8 +174,10 @@ pub(crate) fn cull_views_with_trees(
                     trees: &trees,
                 }
             });
+            let population = candidates.p0().iter().len();
             let (visible, tested, accepted) = flat_pass(
                 &mut candidates.p0(),
+                population,
                 tallies,
                 &mut visible_entities,
                 ViewFilter {
@@ -187,7 +189,6 @@ pub(crate) fn cull_views_with_trees(
                 no_cpu_culling_view,
                 verdicts,
             );
-            let population = candidates.p0().iter().len();
             s.visible += visible;
             s.tested += tested;
             s.accepted_by_subtree += accepted;
@@ -257,17 +258,18 @@ pub(crate) fn cull_views_with_trees(
                     first: found.sorted_keys(slots),
                     second: found_busy.sorted_keys(slots),
                 };
-                if layers == WalkedLayers::All {
+                // A fresh walk fills the view's list from the start; one that kept the
+                // trees' finds refills only the busy movers' tail after them.
+                let from = if layers == WalkedLayers::All {
                     walk.found_in_trees = keys.first.len();
-                }
+                    0
+                } else {
+                    walk.found_in_trees
+                };
                 walk.busy_movers_walked();
                 Some(FreshFinds {
                     keys,
-                    from: if layers == WalkedLayers::All {
-                        0
-                    } else {
-                        walk.found_in_trees
-                    },
+                    from,
                     slot_entities: trees.slot_entities(),
                     slot_rows,
                 })
