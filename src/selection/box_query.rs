@@ -59,9 +59,12 @@ pub(crate) fn candidates_in_frustum(
             walked.push(u64::from(slot) << 1 | u64::from(containment == Containment::Inside));
         });
     sort_keys(walked);
+    // The packed entity column: a slot wholly inside needs its entity only, and the record
+    // holding it beside the box is sixteen times as wide.
+    let entities = trees.slot_entities();
     for &key in walked.iter() {
         let slot = (key >> 1) as u32;
-        let Some(entity) = trees.entity(slot) else {
+        let Some(&Some(entity)) = entities.get(slot as usize) else {
             continue;
         };
         // A tree box wholly inside holds the exact box, and the mesh inside it (Bevy's `Aabb`

@@ -205,7 +205,7 @@ impl AccelTrees {
 
     /// The entity in each slot, indexed by slot (`None` for free slots): for passes over many
     /// slots in order, 8 bytes per slot.
-    #[cfg_attr(not(feature = "culling"), allow(dead_code))]
+    #[cfg_attr(not(any(feature = "culling", feature = "selection")), allow(dead_code))]
     pub(crate) fn slot_entities(&self) -> &[Option<Entity>] {
         &self.entities_by_slot
     }

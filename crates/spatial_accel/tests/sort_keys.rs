@@ -1,6 +1,7 @@
 //! `sort::sort_keys` against the standard library's sort, on keys of every width and on the
 //! inputs a radix sort gets wrong: all equal, two values, only high bits differing, the full
-//! 64 bits, descending, duplicates, sizes either side of the switch to the comparison sort.
+//! 64 bits, descending, duplicates, sizes either side of the switch to the comparison sort;
+//! and keys already in order but for one pair (what the scan for sorted keys must not miss).
 
 use accel_testkit::Rng;
 use spatial_accel::sort::sort_keys;
@@ -64,4 +65,20 @@ fn sorts_the_inputs_radix_sorts_get_wrong() {
         "entity-like: index and a generation of 0 or 1",
     );
     check([u64::MAX, 0, u64::MAX - 1, 1].repeat(100), "extremes");
+}
+
+#[test]
+fn keys_in_order_but_for_one_pair_are_sorted() {
+    let n = 3000u64;
+    let ascending: Vec<u64> = (0..n).map(|i| i / 3 << 20 | 5).collect();
+    check(ascending.clone(), "in order, with duplicates");
+    for at in [0, 1, n as usize / 2, n as usize - 2] {
+        let mut keys = ascending.clone();
+        // Moves a larger key in front of a smaller one: two keys out of order.
+        keys[at] = keys[at + 1] + (1 << 20);
+        check(keys, &format!("in order but at {at}"));
+        let mut keys = ascending.clone();
+        keys.swap(at, n as usize - 1 - at.min(n as usize / 2 - 1));
+        check(keys, &format!("one swap from {at}"));
+    }
 }
