@@ -1,6 +1,8 @@
 //! The brute force a game would write with Bevy alone, in `f64`: project every triangle
 //! (touching: clipped at the near plane, then tested against the rectangle by separating axes)
-//! or every corner of every world box (enclosed, centre), and compare with the rectangle.
+//! or every corner of every world box (enclosed, centre), and compare with the rectangle; and the random scenes it judges (`scene`).
+
+pub mod scene;
 
 use accel_testkit::screen_oracle::{clip_polygon, polygon_meets_rect};
 use bevy::math::{DAffine3, DMat4, DVec2, DVec3, DVec4};

@@ -70,7 +70,7 @@ fn sorts_the_inputs_radix_sorts_get_wrong() {
 #[test]
 fn keys_in_order_but_for_one_pair_are_sorted() {
     let n = 3000u64;
-    let ascending: Vec<u64> = (0..n).map(|i| i / 3 << 20 | 5).collect();
+    let ascending: Vec<u64> = (0..n).map(|i| ((i / 3) << 20) | 5).collect();
     check(ascending.clone(), "in order, with duplicates");
     for at in [0, 1, n as usize / 2, n as usize - 2] {
         let mut keys = ascending.clone();
