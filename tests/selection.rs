@@ -16,10 +16,11 @@ use bevy_accel::prelude::*;
 
 mod common;
 mod selection_oracle;
+use selection_oracle::box_corners;
 use selection_oracle::scene::{
-    Rule, SceneEntity, app, expected, populate, random_rect, spawn_camera,
+    MODES, Rule, SceneEntity, app, expected, populate, random_rect, rect_screens, select_in_rect,
+    spawn_camera,
 };
-use selection_oracle::{Screen, box_corners};
 
 #[test]
 fn every_mode_equals_the_projection_brute_force() {
@@ -34,35 +35,17 @@ fn every_mode_equals_the_projection_brute_force() {
         let cam = app.world().get::<Camera>(camera).unwrap().clone();
         let viewport = cam.logical_viewport_rect().unwrap();
         for round in 0..16 {
-            let (a, b) = random_rect(&mut rng, viewport);
-            let mode = [
-                SelectionMode::Center,
-                SelectionMode::Enclosed,
-                SelectionMode::Touching,
-            ][round % 3];
-            let found: Vec<Entity> = app
-                .world_mut()
-                .run_system_once(move |mut selection: AccelSelection| {
-                    selection
-                        .in_rect(camera, a, b, mode, SelectionOrder::ByEntity)
-                        .unwrap()
-                        .to_vec()
-                })
-                .unwrap();
-            let ndc = |p: Vec2| cam.viewport_to_ndc(p).unwrap().as_dvec2();
-            let m = clip_from_world.as_dmat4();
-            let screens = [
-                Screen::new(m, ndc(a), ndc(b), 1e-4),
-                Screen::new(m, ndc(a), ndc(b), -1e-4),
-            ];
-            let [Some(wide), Some(narrow)] = screens else {
+            let rect = random_rect(&mut rng, viewport);
+            let (a, b) = rect;
+            let mode = MODES[round % 3];
+            let found = select_in_rect(&mut app, camera, rect, mode);
+            let Some(screens) = rect_screens(&cam, clip_from_world, rect) else {
                 assert!(
                     found.is_empty(),
                     "a rectangle off the viewport selected {found:?}"
                 );
                 continue;
             };
-            let screens = [wide, narrow];
             for e in &scene {
                 let got = found.binary_search(&e.entity).is_ok();
                 if e.rule != Rule::Allowed {

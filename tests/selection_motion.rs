@@ -4,15 +4,15 @@
 //! slots no longer follow the order of entities.
 
 use accel_testkit::Rng;
-use bevy::ecs::system::RunSystemOnce;
 use bevy::math::DAffine3;
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
 
 mod common;
 mod selection_oracle;
-use selection_oracle::Screen;
-use selection_oracle::scene::{Rule, app, expected, populate, random_rect, spawn_camera};
+use selection_oracle::scene::{
+    MODES, Rule, app, expected, populate, random_rect, rect_screens, select_in_rect, spawn_camera,
+};
 
 #[test]
 fn rectangles_stay_exact_while_entities_move_leave_and_come() {
@@ -46,35 +46,17 @@ fn rectangles_stay_exact_while_entities_move_leave_and_come() {
         let cam = app.world().get::<Camera>(camera).unwrap().clone();
         let viewport = cam.logical_viewport_rect().unwrap();
         for round in 0..6 {
-            let (a, b) = random_rect(&mut rng, viewport);
-            let mode = [
-                SelectionMode::Center,
-                SelectionMode::Enclosed,
-                SelectionMode::Touching,
-            ][round % 3];
-            let found: Vec<Entity> = app
-                .world_mut()
-                .run_system_once(move |mut selection: AccelSelection| {
-                    selection
-                        .in_rect(camera, a, b, mode, SelectionOrder::ByEntity)
-                        .unwrap()
-                        .to_vec()
-                })
-                .unwrap();
+            let rect = random_rect(&mut rng, viewport);
+            let mode = MODES[round % 3];
+            let found = select_in_rect(&mut app, camera, rect, mode);
             assert!(found.is_sorted(), "frame {frame}: not sorted by entity");
-            let ndc = |p: Vec2| cam.viewport_to_ndc(p).unwrap().as_dvec2();
-            let m = clip_from_world.as_dmat4();
-            let (Some(wide), Some(narrow)) = (
-                Screen::new(m, ndc(a), ndc(b), 1e-4),
-                Screen::new(m, ndc(a), ndc(b), -1e-4),
-            ) else {
+            let Some(screens) = rect_screens(&cam, clip_from_world, rect) else {
                 assert!(
                     found.is_empty(),
                     "frame {frame}: off the viewport {found:?}"
                 );
                 continue;
             };
-            let screens = [wide, narrow];
             for e in &scene {
                 let got = found.binary_search(&e.entity).is_ok();
                 let want = if e.rule == Rule::Allowed {

@@ -8,6 +8,7 @@ use accel_testkit::Rng;
 use bevy::camera::primitives::{Aabb, MeshAabb};
 use bevy::camera::visibility::RenderLayers;
 use bevy::camera::{RenderTargetInfo, Viewport};
+use bevy::ecs::system::RunSystemOnce;
 use bevy::math::{DAffine3, DVec3};
 use bevy::mesh::{Indices, VertexAttributeValues};
 use bevy::picking::Pickable;
@@ -254,4 +255,43 @@ pub fn expected(entity: &SceneEntity, mode: SelectionMode, screens: &[Screen; 2]
     };
     let (wide, narrow) = (verdict(&screens[0]), verdict(&screens[1]));
     (wide == narrow).then_some(wide)
+}
+
+/// The modes in the order the tests take them round by round.
+pub const MODES: [SelectionMode; 3] = [
+    SelectionMode::Center,
+    SelectionMode::Enclosed,
+    SelectionMode::Touching,
+];
+
+/// What `AccelSelection::in_rect` selects through `camera`, sorted by entity.
+pub fn select_in_rect(
+    app: &mut App,
+    camera: Entity,
+    (a, b): (Vec2, Vec2),
+    mode: SelectionMode,
+) -> Vec<Entity> {
+    app.world_mut()
+        .run_system_once(move |mut selection: AccelSelection| {
+            selection
+                .in_rect(camera, a, b, mode, SelectionOrder::ByEntity)
+                .unwrap()
+                .to_vec()
+        })
+        .unwrap()
+}
+
+/// The rectangle `a`-`b` of `camera` grown and shrunk by the rounding band (see
+/// [`Screen`]), or `None` when it lies off the viewport.
+pub fn rect_screens(
+    camera: &Camera,
+    clip_from_world: Mat4,
+    (a, b): (Vec2, Vec2),
+) -> Option<[Screen; 2]> {
+    let ndc = |p: Vec2| camera.viewport_to_ndc(p).unwrap().as_dvec2();
+    let m = clip_from_world.as_dmat4();
+    Some([
+        Screen::new(m, ndc(a), ndc(b), 1e-4)?,
+        Screen::new(m, ndc(a), ndc(b), -1e-4)?,
+    ])
 }
