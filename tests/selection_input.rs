@@ -27,12 +27,15 @@ struct Scene {
     cubes: Vec<Entity>,
 }
 
-/// Counts the `SelectionChanged` events and what they report.
+/// Counts the `SelectionChanged` events and what they report, and the lifecycle events of
+/// `Selected` itself (which must agree with them).
 #[derive(Resource, Default)]
 struct Changes {
     events: usize,
     added: usize,
     removed: usize,
+    on_add: usize,
+    on_remove: usize,
 }
 
 /// A 12 x 12 grid of unit cubes seen from above at an angle, a window the camera draws to,
@@ -64,7 +67,13 @@ fn scene() -> Scene {
             changes.added += changed.added;
             changes.removed += changed.removed;
         },
-    );
+    )
+    .add_observer(|_: On<Add, Selected>, mut changes: ResMut<Changes>| {
+        changes.on_add += 1;
+    })
+    .add_observer(|_: On<Remove, Selected>, mut changes: ResMut<Changes>| {
+        changes.on_remove += 1;
+    });
     app.finish();
     let window = app
         .world_mut()
@@ -244,6 +253,7 @@ fn clicks_select_shift_toggles_and_a_click_on_nothing_clears() {
     assert!(s.selected().is_empty(), "a click on nothing deselects");
     let changes = s.app.world().resource::<Changes>();
     assert_eq!((changes.events, changes.added, changes.removed), (5, 3, 3));
+    assert_eq!((changes.on_add, changes.on_remove), (3, 3));
 }
 
 #[test]
@@ -313,6 +323,14 @@ fn a_drag_selects_what_its_rectangle_holds_shift_adds_and_escape_clears() {
     s.key(KeyCode::Escape, ButtonState::Pressed);
     assert!(s.selected().is_empty(), "Escape clears");
     s.key(KeyCode::Escape, ButtonState::Released);
+    // Each entity selected or deselected went through `Selected`'s own lifecycle once.
+    let changes = s.changes();
+    assert!(changes.removed > 0);
+    assert_eq!(
+        (changes.on_add, changes.on_remove),
+        (changes.added, changes.removed),
+        "`On<Add, Selected>` and `On<Remove, Selected>` as the changes report"
+    );
     // The mouse off: nothing changes.
     s.app
         .world_mut()

@@ -176,7 +176,7 @@ fn apply(
     // Selection).
     let mut current: Vec<u64> = selected.iter().map(Entity::to_bits).collect();
     sort_keys(&mut current);
-    let (mut batch, mut removed) = (Vec::new(), 0);
+    let (mut batch, mut gone) = (Vec::new(), Vec::new());
     let (mut old, mut new) = (current.iter().peekable(), found.iter().peekable());
     loop {
         match (old.peek(), new.peek()) {
@@ -191,8 +191,7 @@ fn apply(
             (Some(&&o), _) => {
                 old.next();
                 if replace && let Some(entity) = Entity::try_from_bits(o) {
-                    commands.entity(entity).try_remove::<Selected>();
-                    removed += 1;
+                    gone.push(entity);
                 }
             }
             (None, Some(&&n)) => {
@@ -201,6 +200,18 @@ fn apply(
             }
             (None, None) => break,
         }
+    }
+    // One command for every removal: a command each would add its queueing and dispatch to
+    // each removal, and replacing a selection removes tens of thousands.
+    let removed = gone.len();
+    if removed > 0 {
+        commands.queue(move |world: &mut World| {
+            for entity in gone {
+                if let Ok(mut entity) = world.get_entity_mut(entity) {
+                    entity.remove::<Selected>();
+                }
+            }
+        });
     }
     // One batch: Bevy moves each archetype's entities together, where one command per
     // entity would look every move up again.
