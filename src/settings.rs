@@ -57,6 +57,17 @@ pub struct AccelSettings {
     pub automatic: AutomaticIndexSettings,
     /// When entities that move frame after frame leave the dynamic index for a flat list.
     pub busy_movers: BusyMoverSettings,
+    /// Below this many entities in the trees (and those waiting to join), with no plugin or
+    /// system registered as their reader, the trees step aside after a short while: the
+    /// plugin's systems skip their upkeep and Bevy's own culling runs in place of theirs, so
+    /// a small world pays next to nothing for the plugin. Readers register by being there:
+    /// the picking, selection, overlay, preview and panel plugins, and every system with an
+    /// [`AccelRayCast`](crate::AccelRayCast) or [`AccelSpatialQuery`](crate::AccelSpatialQuery).
+    /// The trees catch up, from every change made meanwhile, in the frame the world grows
+    /// past it or a reader appears (see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
+    /// 0 keeps them current at every size. The default lies where the trees stop paying
+    /// for their upkeep at one and two compute threads (BENCHMARKS.md, Whole frame).
+    pub step_aside_below: usize,
 }
 
 impl Default for AccelSettings {
@@ -73,6 +84,7 @@ impl Default for AccelSettings {
             bvh: BvhIndexSettings::default(),
             automatic: AutomaticIndexSettings::default(),
             busy_movers: BusyMoverSettings::default(),
+            step_aside_below: 5_000,
         }
     }
 }

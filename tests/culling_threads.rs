@@ -59,6 +59,7 @@ fn app(ours: bool) -> App {
                 mode: BusyMovers::On,
                 ..default()
             },
+            step_aside_below: 0,
             ..default()
         })
         .add_plugins(AccelCullingPlugin);

@@ -111,17 +111,35 @@ impl Plugin for AccelCullingPlugin {
                 .in_set(VisibilitySystems::CheckVisibility)
                 .in_set(AccelCullingSystems)
                 .after(AccelSystems::Stats)
-                .after(check_visibility_ranges),
+                .after(check_visibility_ranges)
+                .run_if(crate::systems::trees_current),
         );
     }
 
     fn finish(&self, app: &mut App) {
-        app.remove_systems_in_set(
-            PostUpdate,
-            check_visibility_cpu_culling,
-            ScheduleCleanupPolicy::RemoveSystemsOnly,
-        )
-        .ok();
+        let removed = app
+            .remove_systems_in_set(
+                PostUpdate,
+                check_visibility_cpu_culling,
+                ScheduleCleanupPolicy::RemoveSystemsOnly,
+            )
+            .unwrap_or(0);
+        // Bevy's pass stays, for the frames in which the trees stand aside in a small world
+        // (`AccelTrees::stepped_aside`): there it costs less than any pass of ours. Added
+        // back as Bevy adds it; its ordering with the range checks holds through its type.
+        if removed > 0 {
+            app.add_systems(
+                PostUpdate,
+                check_visibility_cpu_culling
+                    .in_set(VisibilitySystems::CheckVisibility)
+                    .after(AccelSystems::Stats)
+                    .before(camera::cull_views_with_trees)
+                    .run_if(crate::systems::step_aside::trees_stepped_aside),
+            );
+            if let Some(trees) = app.world().get_resource::<crate::AccelTrees>() {
+                trees.step_aside.set_stand_in();
+            }
+        }
         #[cfg(feature = "light_culling")]
         light::replace_light_culling(app);
     }

@@ -161,6 +161,10 @@ impl Plugin for AccelOverlaysPlugin {
                 .after(VisibilitySystems::CheckVisibility),
         );
     }
+
+    fn finish(&self, app: &mut App) {
+        crate::trees::step_aside::register_reader_plugin(app);
+    }
 }
 
 /// The camera the settings name, or the first active one by order.

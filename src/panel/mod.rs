@@ -77,6 +77,10 @@ impl Plugin for AccelPanelPlugin {
                     .run_if(|s: Res<AccelPanelSettings>| s.open),
             );
     }
+
+    fn finish(&self, app: &mut App) {
+        crate::trees::step_aside::register_reader_plugin(app);
+    }
 }
 
 fn toggle_panel(keys: Option<Res<ButtonInput<KeyCode>>>, mut settings: ResMut<AccelPanelSettings>) {

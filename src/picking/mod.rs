@@ -183,5 +183,6 @@ impl Plugin for AccelPickingPlugin {
         if !app.world().contains_resource::<AccelTrees>() {
             warn!("AccelPickingPlugin needs AccelPlugin: add it, or nothing will be picked");
         }
+        crate::trees::step_aside::register_reader_plugin(app);
     }
 }

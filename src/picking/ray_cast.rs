@@ -4,7 +4,7 @@ use super::posed_pass::{SkinnedTargets, posed_hit};
 use crate::meshes::{
     AccelMeshCache, CachedMesh, MeshShape, Posing, SlotMeshLookup, SlotMeshTable, ray_cast_mesh,
 };
-use crate::trees::placement;
+use crate::trees::{TreeReaderPin, placement};
 use crate::{AccelTrees, LocalFrame};
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::camera::visibility::{InheritedVisibility, ViewVisibility};
@@ -123,6 +123,9 @@ enum Target {
 #[derive(SystemParam)]
 pub struct AccelRayCast<'w, 's> {
     trees: Res<'w, AccelTrees>,
+    /// Registers the system as a reader: the trees it reads never step aside (see
+    /// [`AccelTrees::stepped_aside`]).
+    _reader: Local<'s, TreeReaderPin>,
     locations: &'w Entities,
     meshes: Res<'w, Assets<Mesh>>,
     cache: Res<'w, AccelMeshCache>,

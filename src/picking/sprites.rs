@@ -107,6 +107,10 @@ impl Plugin for AccelSpritePickingPlugin {
                     .run_if(resource_exists::<Messages<PointerHits>>),
             );
     }
+
+    fn finish(&self, app: &mut App) {
+        crate::trees::step_aside::register_reader_plugin(app);
+    }
 }
 
 type SpriteItem = (

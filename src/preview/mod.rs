@@ -210,6 +210,10 @@ impl Plugin for AccelPreviewPlugin {
                     .after(AccelSystems::Stats),
             );
     }
+
+    fn finish(&self, app: &mut App) {
+        crate::trees::step_aside::register_reader_plugin(app);
+    }
 }
 
 fn toggle_preview(

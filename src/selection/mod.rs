@@ -96,5 +96,6 @@ impl Plugin for AccelSelectionPlugin {
         if !app.world().contains_resource::<AccelTrees>() {
             warn!("AccelSelectionPlugin needs AccelPlugin: add it, or nothing will be selected");
         }
+        crate::trees::step_aside::register_reader_plugin(app);
     }
 }

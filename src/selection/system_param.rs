@@ -5,7 +5,7 @@ use super::box_query::{
 };
 use super::settings::{AccelSelectionSettings, SelectionOrder};
 use crate::meshes::{AccelMeshCache, MeshShape, ray_cast_mesh};
-use crate::trees::AccelTrees;
+use crate::trees::{AccelTrees, TreeReaderPin};
 use bevy::camera::primitives::Aabb as BevyAabb;
 use bevy::camera::visibility::{InheritedVisibility, RenderLayers, ViewVisibility};
 use bevy::ecs::system::SystemParam;
@@ -106,6 +106,9 @@ type ShapeData = (
 #[derive(SystemParam)]
 pub struct AccelSelection<'w, 's> {
     trees: Res<'w, AccelTrees>,
+    /// Registers the system as a reader: the trees it reads never step aside (see
+    /// [`AccelTrees::stepped_aside`]).
+    _reader: Local<'s, TreeReaderPin>,
     settings: Option<Res<'w, AccelSelectionSettings>>,
     cameras: Query<'w, 's, CameraData>,
     rules: Query<'w, 's, RuleData>,

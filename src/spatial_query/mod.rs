@@ -2,7 +2,7 @@
 //! [`AccelSpatialQuery`]. No cargo feature needed; ray casts against meshes are
 //! [`AccelRayCast`](crate::AccelRayCast)'s (cargo feature `picking`).
 
-use crate::trees::AccelTrees;
+use crate::trees::{AccelTrees, TreeReaderPin};
 use bevy::camera::primitives::Frustum;
 use bevy::ecs::system::SystemParam;
 use bevy::math::bounding::{Aabb3d, BoundingSphere};
@@ -47,6 +47,9 @@ use spatial_accel::{Aabb, Containment, SpatialQuery};
 #[derive(SystemParam)]
 pub struct AccelSpatialQuery<'w, 's> {
     trees: Res<'w, AccelTrees>,
+    /// Registers the system as a reader: the trees it reads never step aside (see
+    /// [`AccelTrees::stepped_aside`]).
+    _reader: Local<'s, TreeReaderPin>,
     entities: Local<'s, Vec<Entity>>,
     nearest: Local<'s, Vec<(Entity, f32)>>,
 }

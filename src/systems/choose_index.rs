@@ -54,7 +54,10 @@ pub(crate) fn index_switch_due(
     automatic: Res<AutomaticIndex>,
     trees: Res<AccelTrees>,
 ) -> bool {
-    trees.index_switch_in_flight() || trees.query().choice() != automatic.resolve(settings.index)
+    // Trees that stand aside switch nothing (and a read through `query` would wake them).
+    !trees.stepped_aside()
+        && (trees.index_switch_in_flight()
+            || trees.query().choice() != automatic.resolve(settings.index))
 }
 
 /// Feeds the frame's workload to the advisor, once the frame's figures are published; the

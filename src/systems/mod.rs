@@ -23,10 +23,12 @@ mod maintain;
 mod membership;
 mod prefetched;
 mod publish_stats;
+pub(crate) mod step_aside;
 mod sync;
 
 #[cfg(feature = "culling")]
 pub(crate) use membership::RejectedEntities;
+pub(crate) use step_aside::trees_current;
 
 use crate::settings::AccelSettings;
 use bevy::camera::visibility::VisibilitySystems;
@@ -73,6 +75,21 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 .before(VisibilitySystems::CheckVisibility)
                 .run_if(|s: Res<AccelSettings>| s.enabled),
         )
+        // The frame's step-aside decision first (the chain's first set), then every set
+        // reads it.
+        .configure_sets(
+            PostUpdate,
+            AccelSystems::ChooseIndex.run_if(step_aside::decide_step_aside),
+        )
+        .configure_sets(
+            PostUpdate,
+            (
+                AccelSystems::Sync,
+                AccelSystems::Maintain,
+                AccelSystems::Stats,
+            )
+                .run_if(trees_current),
+        )
         .add_systems(
             PostUpdate,
             (
@@ -83,6 +100,9 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 maintain::maintain_trees.in_set(AccelSystems::Maintain),
             ),
         )
-        .add_systems(Last, publish_stats::publish_diagnostics);
+        .add_systems(
+            Last,
+            publish_stats::publish_diagnostics.run_if(trees_current),
+        );
     membership::add_membership_observers(app);
 }

@@ -23,6 +23,7 @@ mod placement;
 mod placing;
 mod slot_record;
 mod static_scenery;
+pub(crate) mod step_aside;
 #[cfg(test)]
 mod tests;
 
@@ -31,6 +32,7 @@ pub use placement::LocalFrame;
 pub(crate) use placement::placement;
 pub(crate) use placing::Placed;
 pub(crate) use static_scenery::entity_tree_config;
+pub(crate) use step_aside::TreeReaderPin;
 
 use crate::index::EntityIndex;
 use bevy::prelude::*;
@@ -78,7 +80,9 @@ struct Tracked {
 /// query callback into the entity and its exact world box.
 ///
 /// The plugin keeps this resource in sync in [`AccelSystems::Sync`](crate::AccelSystems);
-/// read it in any system that runs after it. It is marked changed (Bevy's change detection)
+/// read it in any system that runs after it, through [`AccelSpatialQuery::trees`](crate::AccelSpatialQuery::trees)
+/// (which registers the system as a reader): in a small world that nothing reads, the trees
+/// stand still (see [`AccelTrees::stepped_aside`]). It is marked changed (Bevy's change detection)
 /// only in frames where the trees changed, so `Res<AccelTrees>::is_changed` tells a reader
 /// whether what it computed from them last frame still holds.
 #[derive(Resource, Default)]
@@ -117,21 +121,26 @@ pub struct AccelTrees {
     busy: BusyFrame,
     /// See [`Self::index_generation`].
     index_generation: u64,
+    /// Whether the trees stand still this frame (see [`Self::stepped_aside`]).
+    pub(crate) step_aside: step_aside::StepAside,
 }
 
 impl AccelTrees {
     /// Both trees, as one [`SpatialQuery`](spatial_accel::SpatialQuery): primitive ids are slots.
     pub fn query(&self) -> &EntityIndex {
+        self.step_aside.note_read();
         &self.index
     }
 
     /// The dynamic BVH, while it is the index of the moving entities.
     pub fn dynamic_bvh(&self) -> Option<&DynamicBvh> {
+        self.step_aside.note_read();
         self.index.dynamic_bvh()
     }
 
     /// The static tree.
     pub fn static_tree(&self) -> &Bvh {
+        self.step_aside.note_read();
         self.index.static_tree()
     }
 
@@ -159,22 +168,26 @@ impl AccelTrees {
     /// The slot and tree of a tracked entity.
     #[inline]
     pub fn location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
+        self.step_aside.note_read();
         self.tracked(entity).map(|t| (t.slot, t.tree))
     }
 
     /// True when the entity is in a tree.
     #[inline]
     pub fn contains(&self, entity: Entity) -> bool {
+        self.step_aside.note_read();
         self.tracked(entity).is_some()
     }
 
     /// Number of tracked entities.
     pub fn len(&self) -> usize {
+        self.step_aside.note_read();
         self.tracked_count
     }
 
     /// True when nothing is tracked.
     pub fn is_empty(&self) -> bool {
+        self.step_aside.note_read();
         self.tracked_count == 0
     }
 
@@ -212,6 +225,7 @@ impl AccelTrees {
 
     /// Every tracked entity with its slot, in slot order.
     pub fn iter(&self) -> impl Iterator<Item = (Entity, u32)> + '_ {
+        self.step_aside.note_read();
         self.entities_by_slot
             .iter()
             .enumerate()

@@ -54,6 +54,24 @@ pub(super) fn replace_light_culling(app: &mut App) {
             .after(SimulationLightSystems::UpdateLightFrusta)
             .after(VisibilitySystems::CheckVisibility)
             .after(AccelSystems::Stats)
-            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible),
+            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible)
+            .run_if(crate::systems::trees_current),
+    );
+    // bevy_light's own, for the frames in which the trees stand aside in a small world
+    // (`AccelTrees::stepped_aside`), with bevy_light's ordering.
+    app.add_systems(
+        PostUpdate,
+        (
+            check_dir_light_mesh_visibility,
+            check_point_light_mesh_visibility,
+        )
+            .in_set(SimulationLightSystems::CheckLightVisibility)
+            .after(VisibilitySystems::CalculateBounds)
+            .after(TransformSystems::Propagate)
+            .after(SimulationLightSystems::UpdateLightFrusta)
+            .after(VisibilitySystems::CheckVisibility)
+            .after(AccelSystems::Stats)
+            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible)
+            .run_if(crate::systems::step_aside::trees_stepped_aside),
     );
 }

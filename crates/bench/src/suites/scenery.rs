@@ -100,6 +100,8 @@ impl Level {
                 AccelPlugin {
                     settings: AccelSettings {
                         static_rebuild_in_frame_up_to,
+                        // The trees' streaming is what is timed, at 4,096 entities too.
+                        step_aside_below: 0,
                         ..default()
                     },
                 },

@@ -1,0 +1,36 @@
+//! The run conditions that step the trees aside in a small world nothing reads (see
+//! [`AccelTrees::stepped_aside`]): one decision a frame, made by the condition of the first
+//! set of the plugin's chain, which the executor evaluates before any later system's.
+//!
+//! Why conditions and not a system: a system costs the executor a task and a thread wake-up
+//! a frame whatever it does, which is what a small world cannot afford; a condition that
+//! comes out false spawns no task.
+
+use super::membership::PendingMembership;
+use crate::settings::AccelSettings;
+use crate::trees::AccelTrees;
+use bevy::prelude::*;
+
+/// Decides whether the trees step aside this frame; true while they are kept current.
+/// Counts the entities waiting to join (spawned while aside, or re-inserted) as members: an
+/// over-count wakes the trees early, never late.
+pub(crate) fn decide_step_aside(
+    trees: Res<AccelTrees>,
+    settings: Res<AccelSettings>,
+    pending: Res<PendingMembership>,
+) -> bool {
+    let members = trees.tracked_len() + pending.0.len();
+    trees.step_aside.decide(members < settings.step_aside_below)
+}
+
+/// True while the trees are kept current this frame (read after [`decide_step_aside`]).
+pub(crate) fn trees_current(trees: Res<AccelTrees>) -> bool {
+    !trees.stepped_aside()
+}
+
+/// True while the trees stand aside this frame (read after [`decide_step_aside`]): Bevy's
+/// own passes run in place of the trees'.
+#[cfg_attr(not(feature = "culling"), allow(dead_code))]
+pub(crate) fn trees_stepped_aside(trees: Res<AccelTrees>) -> bool {
+    trees.stepped_aside()
+}
