@@ -92,6 +92,10 @@ pub struct Options {
     /// and Bevy: one cell, for a profiler.
     #[arg(long = "scene", value_name = "[city/]N[/PCT]/CAMERA[/INDEX]", value_parser = frame_scene)]
     pub frame_scene: Option<String>,
+    /// With `--scene`, the frames measured (the size's own count otherwise): small worlds
+    /// need thousands for a ratio steady to a hundredth.
+    #[arg(long, value_name = "N", requires = "frame_scene")]
+    pub frames: Option<usize>,
 }
 
 /// The suites, in the order `all` runs them, each with its line of `--help`.
@@ -247,6 +251,9 @@ fn sweep_threads(opts: &Options, counts: &[usize]) -> ExitCode {
         }
         if let Some(scene) = &opts.frame_scene {
             child.arg("--scene").arg(scene);
+        }
+        if let Some(frames) = opts.frames {
+            child.arg("--frames").arg(frames.to_string());
         }
         if let Some(json) = &opts.json {
             child

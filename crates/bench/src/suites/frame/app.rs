@@ -47,6 +47,12 @@ pub enum Contender {
     Floor,
     /// Plain Bevy with the camera, culled by Bevy's `check_visibility`.
     Bevy,
+    /// A second plain Bevy app like [`Contender::Bevy`]: Bevy against itself, the noise of
+    /// a ratio in this run.
+    BevyAgain,
+    /// `AccelPlugin` and `AccelCullingPlugin` alone, no pointer ray: culling is all the
+    /// trees serve, so a small world steps aside (`AccelTrees::stepped_aside`).
+    AccelNoPointer(IndexChoice),
     /// The plugins with the movers in this index.
     Accel(IndexChoice),
     /// The same with the busy movers' flat list off: every mover in the index.
@@ -67,6 +73,8 @@ impl Contender {
         match self {
             Self::Floor => "floor".into(),
             Self::Bevy => "bevy".into(),
+            Self::BevyAgain => "bevy-again".into(),
+            Self::AccelNoPointer(index) => format!("accel/{index:?}-no-pointer"),
             Self::Accel(index) => format!("accel/{index:?}"),
             Self::AccelBusyOff(index) => format!("accel/{index:?}-busy-off"),
             Self::AccelGizmos(index) => format!("accel/{index:?}+gizmos"),
@@ -81,6 +89,7 @@ impl Contender {
         matches!(
             self,
             Self::Accel(_)
+                | Self::AccelNoPointer(_)
                 | Self::AccelBusyOff(_)
                 | Self::AccelGizmos(_)
                 | Self::AccelOverlaysOff(_)
@@ -241,6 +250,21 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
             ..default()
         })
         .add_plugins(bevy_accel::panel::AccelPanelPlugin);
+    }
+    if let Contender::AccelNoPointer(index) = contender {
+        app.add_plugins((
+            AccelPlugin {
+                settings: AccelSettings {
+                    index,
+                    automatic: bevy_accel::AutomaticIndexSettings {
+                        hold_frames: 10,
+                        ..default()
+                    },
+                    ..default()
+                },
+            },
+            AccelCullingPlugin,
+        ));
     }
     if let Contender::Accel(index)
     | Contender::AccelBusyOff(index)
