@@ -6,7 +6,8 @@ use bevy::prelude::*;
 use core::time::Duration;
 use spatial_accel::query::{IndexStats, UpkeepReport};
 
-/// Counts and timings of the last sync, updated every frame the plugin runs.
+/// Counts and timings of the last sync, updated every frame the plugin runs (not while the
+/// trees stand aside in a small world: see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct AccelStats {
     /// Entities inserted into a tree this frame.
