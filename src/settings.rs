@@ -62,7 +62,7 @@ pub struct AccelSettings {
     /// plugin's systems skip their upkeep and Bevy's own culling runs in place of theirs, so
     /// a small world pays next to nothing for the plugin. Readers register by being there:
     /// the picking, selection, overlay, preview and panel plugins, and every system with an
-    /// [`AccelRayCast`](crate::AccelRayCast) or [`AccelSpatialQuery`](crate::AccelSpatialQuery).
+    /// `AccelRayCast`, an `AccelSelection` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery).
     /// The trees catch up, from every change made meanwhile, in the frame the world grows
     /// past it or a reader appears (see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
     /// 0 keeps them current at every size. The default lies where the trees stop paying

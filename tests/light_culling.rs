@@ -370,3 +370,42 @@ fn check_light_views(busy: BusyMovers, index: IndexChoice) {
         stats.light_views
     );
 }
+
+/// Below `AccelSettings::step_aside_below`, with culling the trees' only use, bevy_light's
+/// own caster tests stand in for the trees' light views: the views stay Bevy's through the
+/// step aside while lights and casters move.
+#[test]
+fn light_views_equal_bevys_while_the_trees_step_aside() {
+    let mut bevy_app = app(false);
+    let mut accel_app = app(true);
+    accel_app
+        .world_mut()
+        .resource_mut::<AccelSettings>()
+        .step_aside_below = 5_000;
+    let parents = [populate(&mut bevy_app, 5), populate(&mut accel_app, 5)];
+    lights_and_cameras(&mut bevy_app);
+    lights_and_cameras(&mut accel_app);
+    let mut rng = Rng::from_state(77);
+    let mut aside_frames = 0;
+    for frame in 0..50 {
+        let light_step = rng.vec3(-10.0, 10.0);
+        let parent_step = rng.vec3(-20.0, 20.0);
+        for (app, parent) in [(&mut bevy_app, parents[0]), (&mut accel_app, parents[1])] {
+            let world = app.world_mut();
+            let mut q = world.query::<(&Tag, &mut Transform)>();
+            for (tag, mut t) in q.iter_mut(world) {
+                if let 10..=13 | 20 = tag.0 {
+                    t.translation += light_step;
+                }
+            }
+            world.get_mut::<Transform>(parent).unwrap().translation += parent_step;
+            app.update();
+        }
+        aside_frames += accel_app.world().resource::<AccelTrees>().stepped_aside() as usize;
+        assert!(
+            light_views(&mut bevy_app) == light_views(&mut accel_app),
+            "frame {frame}: light views or caster flags differ"
+        );
+    }
+    assert!(aside_frames >= 15, "stood aside {aside_frames} frames");
+}

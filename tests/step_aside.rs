@@ -55,127 +55,138 @@ fn apply(app: &mut App, entities: &mut Vec<Entity>, live: &mut Vec<bool>, churn:
     }
 }
 
-/// Bevy's app and ours over the same grid, with a camera looking into it.
-fn apps(step_aside_below: usize) -> ((App, Vec<Entity>), (App, Vec<Entity>)) {
-    let make = |ours: bool| {
-        let mut app = app(ours);
-        app.init_resource::<ChangedVisibility>()
-            .add_systems(Last, record_changed_visibility);
-        if ours {
-            app.world_mut()
-                .resource_mut::<AccelSettings>()
-                .step_aside_below = step_aside_below;
-        }
-        let world = app.world_mut();
-        let entities = spawn_grid(world, 8, 0.7, |_, _| {});
-        world.spawn((
-            Camera::default(),
-            Transform::default(),
-            frustum(Vec3::new(-30.0, 10.0, -30.0), Vec3::ZERO, 0.9),
-            ViewIndex(0),
-        ));
-        app.update();
-        (app, entities)
-    };
-    (make(false), make(true))
+/// Bevy's app and ours over the same grid, with a camera looking into it, and the same
+/// churn applied to both each frame.
+struct Twins {
+    bevy: (App, Vec<Entity>, Vec<bool>),
+    accel: (App, Vec<Entity>, Vec<bool>),
+    rng: Rng,
 }
 
-/// The trees hold exactly the live entities, each with its current world box.
-fn assert_trees_hold(app: &mut App, entities: &[Entity], live: &[bool]) {
-    let world = app.world_mut();
-    let trees = world.resource::<AccelTrees>();
-    let held: usize = entities.iter().filter(|&&e| trees.contains(e)).count();
-    let expected = live.iter().filter(|&&l| l).count();
-    assert_eq!(held, expected, "entities held");
-    assert_eq!(trees.len(), expected, "tracked count");
-    for (&e, &l) in entities.iter().zip(live) {
-        assert_eq!(trees.contains(e), l, "{e} held");
+impl Twins {
+    fn new(step_aside_below: usize, seed: u64) -> Self {
+        let make = |ours: bool| {
+            let mut app = app(ours);
+            app.init_resource::<ChangedVisibility>()
+                .add_systems(Last, record_changed_visibility);
+            if ours {
+                app.world_mut()
+                    .resource_mut::<AccelSettings>()
+                    .step_aside_below = step_aside_below;
+            }
+            let world = app.world_mut();
+            let entities = spawn_grid(world, 8, 0.7, |_, _| {});
+            world.spawn((
+                Camera::default(),
+                Transform::default(),
+                frustum(Vec3::new(-30.0, 10.0, -30.0), Vec3::ZERO, 0.9),
+                ViewIndex(0),
+            ));
+            app.update();
+            let live = vec![true; entities.len()];
+            (app, entities, live)
+        };
+        Self {
+            bevy: make(false),
+            accel: make(true),
+            rng: Rng::from_state(seed),
+        }
     }
-    common::check_consistency(app);
+
+    /// One frame of churn in both apps, checked culled alike; whether ours stood aside.
+    fn churned_frame(&mut self, frame: usize) -> bool {
+        let c = churn(&mut self.rng, &self.bevy.2);
+        for (app, entities, live) in [&mut self.bevy, &mut self.accel] {
+            apply(app, entities, live, &c);
+            app.update();
+        }
+        assert_culled_alike(
+            (&mut self.bevy.0, &self.bevy.1),
+            (&mut self.accel.0, &self.accel.1),
+            frame,
+        );
+        self.stepped_aside()
+    }
+
+    fn stepped_aside(&self) -> bool {
+        self.accel
+            .0
+            .world()
+            .resource::<AccelTrees>()
+            .stepped_aside()
+    }
+
+    /// Our trees hold exactly the live entities, each with its current world box.
+    fn assert_trees_hold(&mut self) {
+        let (app, entities, live) = &mut self.accel;
+        let trees = app.world().resource::<AccelTrees>();
+        let expected = live.iter().filter(|&&l| l).count();
+        assert_eq!(trees.len(), expected, "tracked count");
+        for (&e, &l) in entities.iter().zip(live.iter()) {
+            assert_eq!(trees.contains(e), l, "{e} held");
+        }
+        common::check_consistency(app);
+    }
 }
 
 #[test]
 fn a_small_world_steps_aside_culls_as_bevy_and_catches_up() {
-    let ((mut bevy, mut a), (mut accel, mut b)) = apps(5_000);
-    let mut live = vec![true; a.len()];
-    let mut live_b = live.clone();
-    let mut rng = Rng::from_state(0x57e9_a51d);
-    let mut stepped_aside_frames = 0;
-    for frame in 0..SETTLE + 60 {
-        let c = churn(&mut rng, &live);
-        apply(&mut bevy, &mut a, &mut live, &c);
-        apply(&mut accel, &mut b, &mut live_b, &c);
-        bevy.update();
-        accel.update();
-        assert_culled_alike((&mut bevy, &a), (&mut accel, &b), frame);
-        stepped_aside_frames += accel.world().resource::<AccelTrees>().stepped_aside() as usize;
-    }
+    let mut twins = Twins::new(5_000, 0x57e9_a51d);
+    let stepped_aside_frames = (0..SETTLE + 60)
+        .filter(|&frame| twins.churned_frame(frame))
+        .count();
     assert!(
         stepped_aside_frames >= 60,
         "stood aside {stepped_aside_frames} frames"
     );
     // A reader appears: the trees wake in its first frame and hold the world as it is now.
-    accel
+    twins
+        .accel
+        .0
         .world_mut()
         .run_system_once(|q: AccelSpatialQuery| q.trees().stepped_aside())
         .unwrap();
-    accel.update();
-    let trees = accel.world().resource::<AccelTrees>();
-    assert!(!trees.stepped_aside());
-    assert_trees_hold(&mut accel, &b, &live_b);
+    twins.accel.0.update();
+    assert!(!twins.stepped_aside());
+    twins.assert_trees_hold();
     for frame in 0..SETTLE + 10 {
-        let c = churn(&mut rng, &live);
-        apply(&mut bevy, &mut a, &mut live, &c);
-        apply(&mut accel, &mut b, &mut live_b, &c);
-        bevy.update();
-        accel.update();
-        assert_culled_alike((&mut bevy, &a), (&mut accel, &b), frame);
-        assert!(!accel.world().resource::<AccelTrees>().stepped_aside());
+        assert!(
+            !twins.churned_frame(frame),
+            "frame {frame}: aside with a reader"
+        );
     }
-    assert_trees_hold(&mut accel, &b, &live_b);
+    twins.assert_trees_hold();
 }
 
 #[test]
 fn a_world_that_grows_past_the_threshold_wakes_the_trees() {
-    let ((mut bevy, mut a), (mut accel, mut b)) = apps(600);
-    let mut live = vec![true; a.len()];
-    let mut live_b = live.clone();
-    let mut rng = Rng::from_state(0x9a0_77e5);
+    let mut twins = Twins::new(600, 0x9a0_77e5);
     for _ in 0..SETTLE {
-        bevy.update();
-        accel.update();
+        twins.bevy.0.update();
+        twins.accel.0.update();
     }
-    assert!(accel.world().resource::<AccelTrees>().stepped_aside());
+    assert!(twins.stepped_aside());
     // 512 entities and 3 a frame: past 600 within 30 frames.
     let mut woke_at = None;
     for frame in 0..40 {
-        let c = churn(&mut rng, &live);
-        apply(&mut bevy, &mut a, &mut live, &c);
-        apply(&mut accel, &mut b, &mut live_b, &c);
-        bevy.update();
-        accel.update();
-        assert_culled_alike((&mut bevy, &a), (&mut accel, &b), frame);
-        let aside = accel.world().resource::<AccelTrees>().stepped_aside();
+        let aside = twins.churned_frame(frame);
         if !aside && woke_at.is_none() {
             woke_at = Some(frame);
         }
-        if woke_at.is_some() {
-            assert!(
-                !aside,
-                "frame {frame}: stepped aside again above the threshold"
-            );
-        }
+        assert!(
+            woke_at.is_none() || !aside,
+            "frame {frame}: stepped aside again above the threshold"
+        );
     }
     assert!(woke_at.is_some(), "never woke");
-    assert_trees_hold(&mut accel, &b, &live_b);
+    twins.assert_trees_hold();
 }
 
 #[test]
 fn zero_keeps_the_trees_current() {
-    let (_, (mut accel, _)) = apps(0);
-    for _ in 0..SETTLE * 2 {
-        accel.update();
-        assert!(!accel.world().resource::<AccelTrees>().stepped_aside());
+    let mut twins = Twins::new(0, 1);
+    for frame in 0..SETTLE * 2 {
+        assert!(!twins.churned_frame(frame));
     }
 }
 
@@ -198,7 +209,10 @@ fn a_reading_plugin_keeps_the_trees_current() {
 /// wakes the trees for good (with one warning).
 #[test]
 fn a_direct_read_wakes_the_trees_for_good() {
-    let (_, (mut accel, b)) = apps(5_000);
+    let Twins {
+        accel: (mut accel, b, _),
+        ..
+    } = Twins::new(5_000, 2);
     for _ in 0..SETTLE {
         accel.update();
     }

@@ -11,7 +11,8 @@ mod walks;
 
 use crate::AccelSystems;
 use bevy::camera::visibility::VisibilitySystems;
-use bevy::ecs::schedule::ScheduleCleanupPolicy;
+use bevy::ecs::schedule::{ScheduleCleanupPolicy, ScheduleConfigs};
+use bevy::ecs::system::ScheduleSystem;
 use bevy::prelude::*;
 
 /// Swaps bevy_light's shadow-caster culling for the trees', if bevy_light's `LightPlugin`
@@ -39,39 +40,41 @@ pub(super) fn replace_light_culling(app: &mut App) {
         return;
     }
     // Bevy's ordering for these systems: after the camera views (lights may only add
-    // visibility), before entities no view saw are marked hidden.
-    app.add_systems(
-        PostUpdate,
-        (
-            views::cull_directional_lights,
-            views::cull_point_and_spot_lights,
-        )
-            .chain()
+    // visibility), before entities no view saw are marked hidden; and after the plugin's
+    // sets, whose first decides whether the trees stand aside this frame.
+    let in_light_order = |systems: ScheduleConfigs<ScheduleSystem>| {
+        systems
             .in_set(SimulationLightSystems::CheckLightVisibility)
-            .in_set(super::AccelCullingSystems)
             .after(VisibilitySystems::CalculateBounds)
             .after(TransformSystems::Propagate)
             .after(SimulationLightSystems::UpdateLightFrusta)
             .after(VisibilitySystems::CheckVisibility)
             .after(AccelSystems::Stats)
             .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible)
-            .run_if(crate::systems::trees_current),
+    };
+    app.add_systems(
+        PostUpdate,
+        in_light_order(
+            (
+                views::cull_directional_lights,
+                views::cull_point_and_spot_lights,
+            )
+                .chain(),
+        )
+        .in_set(super::AccelCullingSystems)
+        .run_if(crate::systems::trees_current),
     );
     // bevy_light's own, for the frames in which the trees stand aside in a small world
-    // (`AccelTrees::stepped_aside`), with bevy_light's ordering.
+    // (`AccelTrees::stepped_aside`).
     app.add_systems(
         PostUpdate,
-        (
-            check_dir_light_mesh_visibility,
-            check_point_light_mesh_visibility,
+        in_light_order(
+            (
+                check_dir_light_mesh_visibility,
+                check_point_light_mesh_visibility,
+            )
+                .into_configs(),
         )
-            .in_set(SimulationLightSystems::CheckLightVisibility)
-            .after(VisibilitySystems::CalculateBounds)
-            .after(TransformSystems::Propagate)
-            .after(SimulationLightSystems::UpdateLightFrusta)
-            .after(VisibilitySystems::CheckVisibility)
-            .after(AccelSystems::Stats)
-            .before(VisibilitySystems::MarkNewlyHiddenEntitiesInvisible)
-            .run_if(crate::systems::step_aside::trees_stepped_aside),
+        .run_if(crate::systems::step_aside::trees_stepped_aside),
     );
 }

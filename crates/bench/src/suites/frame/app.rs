@@ -208,6 +208,25 @@ fn cast_pointer(mut ray_cast: AccelRayCast, pointer: Res<PointerRay>) {
     std::hint::black_box(hits.len());
 }
 
+/// The plugin's settings in every accel app: the defaults, with the movers in `index` and
+/// the busy movers' list in `busy` mode.
+fn accel_settings(index: IndexChoice, busy: BusyMovers) -> AccelSettings {
+    AccelSettings {
+        index,
+        // The automatic choice settles within the warm-up rather than after a second of
+        // frames; its thresholds are the defaults.
+        automatic: bevy_accel::AutomaticIndexSettings {
+            hold_frames: 10,
+            ..default()
+        },
+        busy_movers: BusyMoverSettings {
+            mode: busy,
+            ..default()
+        },
+        ..default()
+    }
+}
+
 /// The app of `contender` over `scene`, finished and updated once (the boxes spawned and
 /// propagated). Every app draws the same boxes from the same seed, so all of a scene's apps
 /// hold the same world.
@@ -254,14 +273,7 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
     if let Contender::AccelNoPointer(index) = contender {
         app.add_plugins((
             AccelPlugin {
-                settings: AccelSettings {
-                    index,
-                    automatic: bevy_accel::AutomaticIndexSettings {
-                        hold_frames: 10,
-                        ..default()
-                    },
-                    ..default()
-                },
+                settings: accel_settings(index, BusyMovers::default()),
             },
             AccelCullingPlugin,
         ));
@@ -273,26 +285,14 @@ pub fn build_app(contender: Contender, scene: Scene) -> App {
     | Contender::AccelEgui(index)
     | Contender::AccelPanelClosed(index) = contender
     {
+        let busy = if matches!(contender, Contender::AccelBusyOff(_)) {
+            BusyMovers::Off
+        } else {
+            BusyMovers::default()
+        };
         app.add_plugins((
             AccelPlugin {
-                settings: AccelSettings {
-                    index,
-                    // The automatic choice settles within the warm-up rather than after a
-                    // second of frames; its thresholds are the defaults.
-                    automatic: bevy_accel::AutomaticIndexSettings {
-                        hold_frames: 10,
-                        ..default()
-                    },
-                    busy_movers: BusyMoverSettings {
-                        mode: if matches!(contender, Contender::AccelBusyOff(_)) {
-                            BusyMovers::Off
-                        } else {
-                            BusyMovers::default()
-                        },
-                        ..default()
-                    },
-                    ..default()
-                },
+                settings: accel_settings(index, busy),
             },
             AccelCullingPlugin,
             AccelPickingPlugin,
