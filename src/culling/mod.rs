@@ -112,7 +112,7 @@ impl Plugin for AccelCullingPlugin {
                 .in_set(AccelCullingSystems)
                 .after(AccelSystems::Stats)
                 .after(check_visibility_ranges)
-                .run_if(crate::systems::trees_current),
+                .run_if(crate::systems::trees_awake),
         );
     }
 

@@ -300,7 +300,7 @@ fn forget_removed_visibility(
         return;
     }
     let entity = event.event_target();
-    if let Some((slot, _)) = trees.location(entity) {
+    if let Some((slot, _)) = trees.tracked_location(entity) {
         table.forget_visibility_rows(slot, entity);
     }
 }
@@ -408,7 +408,7 @@ pub(crate) fn keep_slot_mesh_table(
         return;
     }
     let refresh = |table: &mut SlotMeshTable, entity: Entity| {
-        if let Some((slot, _)) = trees.location(entity) {
+        if let Some((slot, _)) = trees.tracked_location(entity) {
             table.write(slot, entity, entry_of(entity));
         }
     };

@@ -177,7 +177,7 @@ impl PreviewWorld<'_, '_> {
             // Posed or not, the walk leaves it to this list (a pose it cannot read is not
             // traced unposed: the trace shows what Bevy draws or nothing).
             posed_entities.insert(entity);
-            let Some(slot) = self.trees.location(entity).map(|(slot, _)| slot) else {
+            let Some(slot) = self.trees.tracked_location(entity).map(|(slot, _)| slot) else {
                 continue;
             };
             if !visible.get() {

@@ -349,9 +349,11 @@ impl AccelSelection<'_, '_> {
             SelectionOrder::ByDistance => {
                 let p = Vec3A::from(origin);
                 for (entity, distance) in found.iter_mut() {
-                    *distance = trees.location(*entity).map_or(f32::INFINITY, |(slot, _)| {
-                        trees.world_bounds(slot).distance_squared_to_point(p)
-                    });
+                    *distance = trees
+                        .tracked_location(*entity)
+                        .map_or(f32::INFINITY, |(slot, _)| {
+                            trees.world_bounds(slot).distance_squared_to_point(p)
+                        });
                 }
                 found.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             }

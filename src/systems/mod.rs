@@ -28,7 +28,7 @@ mod sync;
 
 #[cfg(feature = "culling")]
 pub(crate) use membership::RejectedEntities;
-pub(crate) use step_aside::trees_current;
+pub(crate) use step_aside::trees_awake;
 
 use crate::settings::AccelSettings;
 use bevy::camera::visibility::VisibilitySystems;
@@ -88,7 +88,7 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 AccelSystems::Maintain,
                 AccelSystems::Stats,
             )
-                .run_if(trees_current),
+                .run_if(trees_awake),
         )
         .add_systems(
             PostUpdate,
@@ -100,9 +100,6 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 maintain::maintain_trees.in_set(AccelSystems::Maintain),
             ),
         )
-        .add_systems(
-            Last,
-            publish_stats::publish_diagnostics.run_if(trees_current),
-        );
+        .add_systems(Last, publish_stats::publish_diagnostics.run_if(trees_awake));
     membership::add_membership_observers(app);
 }

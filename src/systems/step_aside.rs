@@ -24,7 +24,7 @@ pub(crate) fn decide_step_aside(
 }
 
 /// True while the trees are kept current this frame (read after [`decide_step_aside`]).
-pub(crate) fn trees_current(trees: Res<AccelTrees>) -> bool {
+pub(crate) fn trees_awake(trees: Res<AccelTrees>) -> bool {
     !trees.stepped_aside()
 }
 

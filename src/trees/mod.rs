@@ -169,6 +169,14 @@ impl AccelTrees {
     #[inline]
     pub fn location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
         self.step_aside.note_read();
+        self.tracked_location(entity)
+    }
+
+    /// [`Self::location`] for the plugin's own passes, which run only while the trees are
+    /// current or on behalf of a registered reader: without the step-aside check, which the
+    /// culling's flat pass would otherwise pay per entity.
+    #[inline]
+    pub(crate) fn tracked_location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
         self.tracked(entity).map(|t| (t.slot, t.tree))
     }
 

@@ -24,7 +24,7 @@ impl TreeVerdicts<'_> {
     /// subtree fully in view, no if tracked and in no leaf the walk reached.
     #[inline]
     pub(super) fn frustum_test(&self, entity: Entity) -> Option<bool> {
-        let (slot, tree) = self.trees.location(entity)?;
+        let (slot, tree) = self.trees.tracked_location(entity)?;
         if tree == TreeSlot::Busy {
             // A walk kept from an earlier frame knows only where a busy mover was.
             None

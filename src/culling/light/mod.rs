@@ -62,7 +62,7 @@ pub(super) fn replace_light_culling(app: &mut App) {
                 .chain(),
         )
         .in_set(super::AccelCullingSystems)
-        .run_if(crate::systems::trees_current),
+        .run_if(crate::systems::trees_awake),
     );
     // bevy_light's own, for the frames in which the trees stand aside in a small world
     // (`AccelTrees::stepped_aside`).

@@ -254,7 +254,7 @@ impl CasterVerdicts<'_> {
         if !has_bounds || nfc {
             return None;
         }
-        let (slot, _) = self.trees.location(entity)?;
+        let (slot, _) = self.trees.tracked_location(entity)?;
         Some(self.masks.get(slot))
     }
 }

@@ -383,20 +383,10 @@ pub fn run(opts: &Options) -> Report {
                 ("ms per frame", t.frame),
                 ("visible share off Bevy's, points", share_error),
             ));
-            if c == Contender::BevyAgain {
-                markdown.push(format!(
-                    "| {layout:?} | {n} | {pct}% | {camera:?} | {bevy_share:.1}% / {:.1}% | {floor:.2} ms | \
-                     {bevy:.2} ms | {} | {:.2} ms | {:.2}x | {:.2}x |",
-                    t.visible_pct.unwrap_or(0.0),
-                    c.label(),
-                    t.frame,
-                    bevy / t.frame,
-                    over(bevy) / over(t.frame),
-                ));
-            }
-            let Some([sync, maintain, culling]) = t.parts else {
+            // A row for every accel app, and for Bevy against itself (the ratios' noise).
+            if !(c.is_accel() || c == Contender::BevyAgain) {
                 continue;
-            };
+            }
             let (whole, over_floor) = (bevy / t.frame, over(bevy) / over(t.frame));
             markdown.push(format!(
                 "| {layout:?} | {n} | {pct}% | {camera:?} | {bevy_share:.1}% / {:.1}% | {:.2} ms | \
@@ -407,6 +397,9 @@ pub fn run(opts: &Options) -> Report {
                 c.label(),
                 t.frame,
             ));
+            let Some([sync, maintain, culling]) = t.parts else {
+                continue;
+            };
             notes.push(format!(
                 "{name}, {} (on {:?}): bevy/accel {whole:.2}x whole frame, {over_floor:.2}x \
                  over the floor; sync {:.2} ms, maintenance {:.2} ms, culling {:.2} ms (medians)",
