@@ -128,7 +128,7 @@ pub use spatial_accel;
 pub use spatial_query::AccelSpatialQuery;
 pub use stats::AccelStats;
 pub use systems::AccelSystems;
-pub use trees::{AccelTrees, BusyMoverSettings, BusyMovers, LocalFrame, TreeSlot};
+pub use trees::{AccelTrees, BusyMoverSettings, BusyMovers, LocalFrame, StepAsideProbe, TreeSlot};
 
 /// Everything a game needs to use the crate: `use bevy_accel::prelude::*;`.
 pub mod prelude {

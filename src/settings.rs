@@ -68,6 +68,16 @@ pub struct AccelSettings {
     /// 0 keeps them current at every size. The default lies where the trees stop paying
     /// for their upkeep at one and two compute threads (BENCHMARKS.md, Whole frame).
     pub step_aside_below: usize,
+    /// In a world of any size whose trees serve culling alone (no registered reader, as for
+    /// [`step_aside_below`](Self::step_aside_below)), step aside while Bevy's own culling
+    /// costs less than the trees' upkeep and culling. Both are timed, now and then, in one
+    /// frame that runs Bevy's passes before the trees' (their verdicts are the same); a few
+    /// such frames in a row finding Bevy's clearly cheaper step the trees aside, and a trial
+    /// wakes them now and then to time both again. Probes and trials grow rare while their
+    /// answer holds. Which side wins depends on the views, the movers and the compute threads
+    /// (BENCHMARKS.md, Whole frame); [`AccelTrees::last_step_aside_probe`](crate::AccelTrees::last_step_aside_probe)
+    /// gives the last timing. Off, only the size decides.
+    pub step_aside_when_slower: bool,
 }
 
 impl Default for AccelSettings {
@@ -85,6 +95,7 @@ impl Default for AccelSettings {
             automatic: AutomaticIndexSettings::default(),
             busy_movers: BusyMoverSettings::default(),
             step_aside_below: 5_000,
+            step_aside_when_slower: true,
         }
     }
 }

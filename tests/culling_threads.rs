@@ -60,6 +60,7 @@ fn app(ours: bool) -> App {
                 ..default()
             },
             step_aside_below: 0,
+            step_aside_when_slower: false,
             ..default()
         })
         .add_plugins(AccelCullingPlugin);

@@ -13,6 +13,7 @@ use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
 use bevy_accel::prelude::*;
+use core::time::Duration;
 use std::collections::HashMap;
 
 mod common;
@@ -371,23 +372,21 @@ fn check_light_views(busy: BusyMovers, index: IndexChoice) {
     );
 }
 
-/// Below `AccelSettings::step_aside_below`, with culling the trees' only use, bevy_light's
-/// own caster tests stand in for the trees' light views: the views stay Bevy's through the
-/// step aside while lights and casters move.
-#[test]
-fn light_views_equal_bevys_while_the_trees_step_aside() {
+/// Lights and casters moving for `frames` frames in Bevy's app and ours (set up by
+/// `settings`), their light views compared every frame; the frames ours stood aside.
+fn moving_lights_culled_alike(
+    settings: impl FnOnce(&mut AccelSettings),
+    frames: usize,
+) -> (App, usize) {
     let mut bevy_app = app(false);
     let mut accel_app = app(true);
-    accel_app
-        .world_mut()
-        .resource_mut::<AccelSettings>()
-        .step_aside_below = 5_000;
+    settings(&mut accel_app.world_mut().resource_mut::<AccelSettings>());
     let parents = [populate(&mut bevy_app, 5), populate(&mut accel_app, 5)];
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
     let mut rng = Rng::from_state(77);
     let mut aside_frames = 0;
-    for frame in 0..50 {
+    for frame in 0..frames {
         let light_step = rng.vec3(-10.0, 10.0);
         let parent_step = rng.vec3(-20.0, 20.0);
         for (app, parent) in [(&mut bevy_app, parents[0]), (&mut accel_app, parents[1])] {
@@ -407,5 +406,38 @@ fn light_views_equal_bevys_while_the_trees_step_aside() {
             "frame {frame}: light views or caster flags differ"
         );
     }
+    (accel_app, aside_frames)
+}
+
+/// Below `AccelSettings::step_aside_below`, with culling the trees' only use, bevy_light's
+/// own caster tests stand in for the trees' light views: the views stay Bevy's through the
+/// step aside while lights and casters move.
+#[test]
+fn light_views_equal_bevys_while_the_trees_step_aside() {
+    let (_, aside_frames) =
+        moving_lights_culled_alike(|settings| settings.step_aside_below = 5_000, 50);
     assert!(aside_frames >= 15, "stood aside {aside_frames} frames");
+}
+
+/// With `AccelSettings::step_aside_when_slower`, probe frames run bevy_light's caster tests
+/// and then the trees' (timing both), and the timing may step the trees aside: the light
+/// views stay Bevy's in every such frame.
+#[test]
+fn light_views_equal_bevys_through_timed_probe_frames() {
+    let (accel_app, _) = moving_lights_culled_alike(
+        |settings| {
+            settings.step_aside_below = 0;
+            settings.step_aside_when_slower = true;
+        },
+        150,
+    );
+    let probe = accel_app
+        .world()
+        .resource::<AccelTrees>()
+        .last_step_aside_probe()
+        .expect("probed");
+    assert!(
+        probe.bevy > Duration::ZERO && probe.trees > Duration::ZERO,
+        "{probe:?}"
+    );
 }

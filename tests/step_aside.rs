@@ -64,15 +64,20 @@ struct Twins {
 }
 
 impl Twins {
+    /// Twins whose trees step aside by size alone.
     fn new(step_aside_below: usize, seed: u64) -> Self {
+        Self::with(step_aside_below, false, seed)
+    }
+
+    fn with(step_aside_below: usize, step_aside_when_slower: bool, seed: u64) -> Self {
         let make = |ours: bool| {
             let mut app = app(ours);
             app.init_resource::<ChangedVisibility>()
                 .add_systems(Last, record_changed_visibility);
             if ours {
-                app.world_mut()
-                    .resource_mut::<AccelSettings>()
-                    .step_aside_below = step_aside_below;
+                let mut settings = app.world_mut().resource_mut::<AccelSettings>();
+                settings.step_aside_below = step_aside_below;
+                settings.step_aside_when_slower = step_aside_when_slower;
             }
             let world = app.world_mut();
             let entities = spawn_grid(world, 8, 0.7, |_, _| {});
@@ -98,6 +103,28 @@ impl Twins {
         let c = churn(&mut self.rng, &self.bevy.2);
         for (app, entities, live) in [&mut self.bevy, &mut self.accel] {
             apply(app, entities, live, &c);
+            app.update();
+        }
+        assert_culled_alike(
+            (&mut self.bevy.0, &self.bevy.1),
+            (&mut self.accel.0, &self.accel.1),
+            frame,
+        );
+        self.stepped_aside()
+    }
+
+    /// One frame in which every live entity moves a little, the same in both apps, checked
+    /// culled alike; whether ours stood aside.
+    fn swarming_frame(&mut self, frame: usize) -> bool {
+        for (app, entities, live) in [&mut self.bevy, &mut self.accel] {
+            let world = app.world_mut();
+            for (i, (&e, &l)) in entities.iter().zip(live.iter()).enumerate() {
+                if l {
+                    let phase = (frame + i) as f32 * 0.37;
+                    world.get_mut::<Transform>(e).unwrap().translation +=
+                        Vec3::new(phase.sin(), phase.cos(), (phase * 0.5).sin()) * 0.2;
+                }
+            }
             app.update();
         }
         assert_culled_alike(
@@ -239,4 +266,87 @@ fn a_direct_read_wakes_the_trees_for_good() {
         accel.update();
         assert!(!accel.world().resource::<AccelTrees>().stepped_aside());
     }
+}
+
+/// Measured, not by size: in a world whose every entity moves every frame, the trees' upkeep
+/// costs several times Bevy's pass, so probe frames (both passes, timed) step the trees aside
+/// and trials wake them now and then. The culling is Bevy's in every frame of it: the trees'
+/// own, the probes' double passes, the aside frames and the trials' catch-ups; a reader then
+/// wakes the trees holding the world as it is.
+#[test]
+fn timed_cheaper_bevy_passes_step_the_trees_aside_at_any_size() {
+    let mut twins = Twins::with(0, true, 0x7140_a51d);
+    // Movers kept in the BVH, every one reinserted or refit each frame: several times the
+    // cost of Bevy's test of the same entities.
+    twins
+        .accel
+        .0
+        .world_mut()
+        .resource_mut::<AccelSettings>()
+        .busy_movers
+        .mode = BusyMovers::Off;
+    let verdicts: Vec<bool> = (0..600).map(|frame| twins.swarming_frame(frame)).collect();
+    let probe = twins
+        .accel
+        .0
+        .world()
+        .resource::<AccelTrees>()
+        .last_step_aside_probe()
+        .expect("probed");
+    assert!(probe.trees > probe.bevy, "{probe:?}");
+    let first_aside = verdicts
+        .iter()
+        .position(|&aside| aside)
+        .unwrap_or_else(|| panic!("never stepped aside; last probe {probe:?}"));
+    let woken_after = verdicts[first_aside..]
+        .iter()
+        .filter(|&&aside| !aside)
+        .count();
+    assert!(woken_after > 0, "no trial woke the trees");
+    twins
+        .accel
+        .0
+        .world_mut()
+        .run_system_once(|q: AccelSpatialQuery| q.trees().stepped_aside())
+        .unwrap();
+    twins.accel.0.update();
+    assert!(!twins.stepped_aside());
+    twins.assert_trees_hold();
+    for frame in 0..SETTLE + 40 {
+        assert!(!twins.swarming_frame(600 + frame), "aside with a reader");
+    }
+    twins.assert_trees_hold();
+}
+
+/// Measured, the other way: a world of still entities and a narrow view, where Bevy's pass
+/// tests every entity and the trees only the few in view, is probed and never steps aside.
+#[test]
+fn timed_dearer_bevy_passes_keep_the_trees_awake() {
+    let mut app = app(true);
+    {
+        let mut settings = app.world_mut().resource_mut::<AccelSettings>();
+        settings.step_aside_below = 0;
+        settings.step_aside_when_slower = true;
+    }
+    spawn_grid(app.world_mut(), 32, 0.4, |_, _| {});
+    // A narrow view into one corner of the grid.
+    app.world_mut().spawn((
+        Camera::default(),
+        Transform::default(),
+        frustum(Vec3::splat(-20.0), Vec3::ZERO, 0.05),
+    ));
+    for frame in 0..300 {
+        app.update();
+        assert!(
+            !app.world().resource::<AccelTrees>().stepped_aside(),
+            "frame {frame}: stepped aside, last probe {:?}",
+            app.world().resource::<AccelTrees>().last_step_aside_probe()
+        );
+    }
+    let probe = app
+        .world()
+        .resource::<AccelTrees>()
+        .last_step_aside_probe()
+        .expect("probed");
+    assert!(probe.bevy > probe.trees, "{probe:?}");
 }

@@ -24,6 +24,7 @@
 
 mod bevy_rounding;
 mod bevy_rules;
+mod bevy_stand_in;
 mod camera;
 mod class_lists;
 #[cfg(feature = "light_culling")]
@@ -124,17 +125,20 @@ impl Plugin for AccelCullingPlugin {
                 ScheduleCleanupPolicy::RemoveSystemsOnly,
             )
             .unwrap_or(0);
-        // Bevy's pass stays, for the frames in which the trees stand aside in a small world
-        // (`AccelTrees::stepped_aside`): there it costs less than any pass of ours. Added
-        // back as Bevy adds it; its ordering with the range checks holds through its type.
+        // Bevy's pass stays, for the frames in which the trees stand aside
+        // (`AccelTrees::stepped_aside`), where it costs less than the trees', and for the
+        // frames that time it before the trees' pass (which then overwrites the same verdicts).
+        // Added back as Bevy adds it; its ordering with the range checks holds through its
+        // type, which the timer keeps.
         if removed > 0 {
+            let bevy_pass = bevy_stand_in::timed_stand_in(app, check_visibility_cpu_culling);
             app.add_systems(
                 PostUpdate,
-                check_visibility_cpu_culling
+                bevy_pass
                     .in_set(VisibilitySystems::CheckVisibility)
                     .after(AccelSystems::Stats)
                     .before(camera::cull_views_with_trees)
-                    .run_if(crate::systems::step_aside::trees_stepped_aside),
+                    .run_if(crate::systems::step_aside::bevy_passes_run),
             );
             if let Some(trees) = app.world().get_resource::<crate::AccelTrees>() {
                 trees.step_aside.set_stand_in();

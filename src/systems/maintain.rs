@@ -22,12 +22,14 @@ pub(crate) fn maintain_trees(
     mut automatic: ResMut<AutomaticIndex>,
     mut traffic: Local<RayTraffic>,
 ) {
+    let start = Instant::now();
     land_static_builds(&settings, &mut trees, &mut stats);
     maintain_index(&settings, &mut trees, &mut stats, &mut traffic);
     if trees.is_changed() {
         publish_tree_stats(&trees, &mut stats);
     }
     advise_index(&settings, &trees, &mut automatic, &mut stats);
+    trees.step_aside.costs().add_trees(start.elapsed());
 }
 
 /// Makes the dynamic index consistent after the sync's edits and lets it spend

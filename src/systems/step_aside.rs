@@ -1,4 +1,4 @@
-//! The run conditions that step the trees aside in a small world nothing reads (see
+//! The run conditions that step the trees aside in a world nothing reads (see
 //! [`AccelTrees::stepped_aside`]): one decision a frame, made by the condition of the first
 //! set of the plugin's chain, which the executor evaluates before any later system's.
 //!
@@ -20,7 +20,10 @@ pub(crate) fn decide_step_aside(
     pending: Res<PendingMembership>,
 ) -> bool {
     let members = trees.tracked_len() + pending.0.len();
-    trees.step_aside.decide(members < settings.step_aside_below)
+    trees.step_aside.decide(
+        members < settings.step_aside_below,
+        settings.step_aside_when_slower,
+    )
 }
 
 /// True while the trees are kept current this frame (read after [`decide_step_aside`]).
@@ -28,9 +31,9 @@ pub(crate) fn trees_awake(trees: Res<AccelTrees>) -> bool {
     !trees.stepped_aside()
 }
 
-/// True while the trees stand aside this frame (read after [`decide_step_aside`]): Bevy's
-/// own passes run in place of the trees'.
+/// True while Bevy's own culling passes run this frame (read after [`decide_step_aside`]): in
+/// place of the trees' while they stand aside, or before them in a frame that times both.
 #[cfg_attr(not(feature = "culling"), allow(dead_code))]
-pub(crate) fn trees_stepped_aside(trees: Res<AccelTrees>) -> bool {
-    trees.stepped_aside()
+pub(crate) fn bevy_passes_run(trees: Res<AccelTrees>) -> bool {
+    trees.step_aside.bevy_passes_run()
 }

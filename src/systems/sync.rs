@@ -230,6 +230,7 @@ pub(crate) fn sync_trees(
     stats.busy_moved = counts.busy_moved;
     stats.rejected = rejected.0.len();
     stats.sync_time = switch.time + start.elapsed();
+    trees.step_aside.costs().add_trees(stats.sync_time);
 }
 
 /// Writes the new boxes of the moved busy movers from every thread of the compute pool, and

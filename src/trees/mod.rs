@@ -18,6 +18,7 @@
 //! all this each frame are in `systems`.
 
 mod busy_movers;
+mod cost_probe;
 mod index_switch;
 mod placement;
 mod placing;
@@ -28,6 +29,8 @@ pub(crate) mod step_aside;
 mod tests;
 
 pub use busy_movers::{BusyMoverSettings, BusyMovers};
+pub(crate) use cost_probe::FrameCosts;
+pub use cost_probe::StepAsideProbe;
 pub use placement::LocalFrame;
 pub(crate) use placement::placement;
 pub(crate) use placing::Placed;

@@ -1,16 +1,20 @@
-//! Whether the trees stand still this frame because nothing would gain from them: a small
-//! world (below [`AccelSettings::step_aside_below`](crate::AccelSettings::step_aside_below)
-//! entities) that no registered reader walks, where Bevy's own culling costs less than the
-//! trees' upkeep and the plugin's systems cost the executor (BENCHMARKS.md, Whole frame).
+//! Whether the trees stand still this frame because nothing would gain from them, in a world
+//! that no registered reader walks: a small one (below
+//! [`AccelSettings::step_aside_below`](crate::AccelSettings::step_aside_below) entities),
+//! where Bevy's own culling costs less than the trees' upkeep and the plugin's systems cost
+//! the executor (BENCHMARKS.md, Whole frame); or one of any size in which Bevy's culling,
+//! timed beside the trees', costs less (`cost_probe`).
 //!
 //! The state is atomics because it is decided in a run condition, which reads resources
 //! only: one decision a frame, before any of the plugin's other conditions in `PostUpdate`
 //! (see `systems::step_aside`), so every system of a frame sees the same answer.
 
 use super::AccelTrees;
+use super::cost_probe::{CostProbe, FrameCosts, ProbeVerdict, StepAsideProbe};
 use bevy::log::warn;
 use bevy::prelude::{FromWorld, World};
 use core::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// Frames a small world with no reader must stay so before the trees step aside. Why wait:
 /// a world being spawned passes through small sizes, and readers in schedules that first
@@ -36,32 +40,71 @@ pub(crate) struct StepAside {
     warned: AtomicBool,
     /// Consecutive frames the world could have stepped aside.
     quiet_frames: AtomicU32,
+    /// This frame runs Bevy's passes before the trees' to time both (`cost_probe`).
+    probing: AtomicBool,
+    /// The running frame's costs, added to by the systems of both sides (shared with the
+    /// timers around Bevy's passes).
+    costs: Arc<FrameCosts>,
+    /// The measured choice's state; locked once a frame, by the decision.
+    probe: Mutex<CostProbe>,
 }
 
 impl StepAside {
-    /// Decides this frame from whether the world may step aside (small, no reader); returns
-    /// true while the trees are kept current. Called once a frame.
-    pub(crate) fn decide(&self, small_world: bool) -> bool {
+    /// Decides this frame from whether the world is small, whether the measured choice may
+    /// step it aside (`measure`) and the last frame's costs; returns true while the trees are
+    /// kept current. Called once a frame.
+    pub(crate) fn decide(&self, small_world: bool, measure: bool) -> bool {
+        let costs = self.costs.take();
         if self.read_while_aside.swap(false, Ordering::Relaxed) {
             // An unseen reader stays a reader: waking only for its next read would leave that
             // read stale again after the next step aside.
             self.readers.fetch_add(1, Ordering::Relaxed);
         }
-        let may = small_world
-            && self.stand_in.load(Ordering::Relaxed)
-            && self.readers.load(Ordering::Relaxed) == 0;
-        if !may {
+        let may =
+            self.stand_in.load(Ordering::Relaxed) && self.readers.load(Ordering::Relaxed) == 0;
+        let mut probe = self.probe.lock().unwrap_or_else(PoisonError::into_inner);
+        let verdict = if may && small_world {
+            probe.reset();
+            self.small_world_verdict()
+        } else if may && measure {
             self.quiet_frames.store(0, Ordering::Relaxed);
-            self.aside.store(false, Ordering::Relaxed);
-            return true;
-        }
+            probe.next(costs)
+        } else {
+            probe.reset();
+            self.quiet_frames.store(0, Ordering::Relaxed);
+            ProbeVerdict::Awake
+        };
+        self.aside
+            .store(verdict == ProbeVerdict::Aside, Ordering::Relaxed);
+        self.probing
+            .store(verdict == ProbeVerdict::Probe, Ordering::Relaxed);
+        verdict != ProbeVerdict::Aside
+    }
+
+    /// A small world with no reader steps aside once it has stayed so for a while.
+    fn small_world_verdict(&self) -> ProbeVerdict {
         if self.aside.load(Ordering::Relaxed) {
-            return false;
+            return ProbeVerdict::Aside;
         }
         let quiet = self.quiet_frames.fetch_add(1, Ordering::Relaxed) + 1;
-        let aside = quiet >= STEP_ASIDE_AFTER_FRAMES;
-        self.aside.store(aside, Ordering::Relaxed);
-        !aside
+        if quiet >= STEP_ASIDE_AFTER_FRAMES {
+            ProbeVerdict::Aside
+        } else {
+            ProbeVerdict::Awake
+        }
+    }
+
+    /// Whether Bevy's passes run this frame: aside, or beside the trees' in a probe frame.
+    #[inline]
+    #[cfg_attr(not(feature = "culling"), allow(dead_code))]
+    pub(crate) fn bevy_passes_run(&self) -> bool {
+        self.is_aside() || self.probing.load(Ordering::Relaxed)
+    }
+
+    /// The running frame's costs, for the systems of both sides to add to.
+    #[inline]
+    pub(crate) fn costs(&self) -> &Arc<FrameCosts> {
+        &self.costs
     }
 
     /// This frame's decision (false before the first).
@@ -121,14 +164,29 @@ impl FromWorld for TreeReaderPin {
 }
 
 impl AccelTrees {
-    /// Whether the trees stand still this frame: the world is small
-    /// ([`AccelSettings::step_aside_below`](crate::AccelSettings::step_aside_below)), the
-    /// trees serve [`AccelCullingPlugin`](crate::AccelCullingPlugin) alone (no other plugin
-    /// or system that reads them is registered), so the plugin's systems skip their upkeep and
-    /// Bevy's own culling runs in place of the trees'. They catch up, from every
-    /// change made meanwhile, in the frame the world grows or a reader appears.
+    /// Whether the trees stand still this frame: they serve
+    /// [`AccelCullingPlugin`](crate::AccelCullingPlugin) alone (no other plugin or system
+    /// that reads them is registered), and the world is small
+    /// ([`AccelSettings::step_aside_below`](crate::AccelSettings::step_aside_below)) or
+    /// Bevy's own culling was timed cheaper than the trees'
+    /// ([`AccelSettings::step_aside_when_slower`](crate::AccelSettings::step_aside_when_slower)).
+    /// The plugin's systems then skip their upkeep and Bevy's own culling runs in place of the
+    /// trees'. They catch up, from every change made meanwhile, in the frame they wake: the
+    /// world grows, a reader appears, or a trial wakes them to time both sides again.
     pub fn stepped_aside(&self) -> bool {
         self.step_aside.is_aside()
+    }
+
+    /// The costs timed in the last probe frame of
+    /// [`AccelSettings::step_aside_when_slower`](crate::AccelSettings::step_aside_when_slower):
+    /// the trees' upkeep and culling, and Bevy's culling run beside them. `None` before the
+    /// first probe (or in an app whose trees have readers, which never probes).
+    pub fn last_step_aside_probe(&self) -> Option<StepAsideProbe> {
+        self.step_aside
+            .probe
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .last()
     }
 
     /// Registers a reader that needs current trees at any size (a plugin that reads them).

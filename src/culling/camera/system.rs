@@ -309,5 +309,6 @@ pub(crate) fn cull_views_with_trees(
     visible_fraction.retain(|view, _| views.contains(*view));
     walks.retain(|view, _| views.contains(*view));
     s.time = start.elapsed();
+    trees.step_aside.costs().add_trees(s.time);
     *stats = s;
 }

@@ -64,17 +64,16 @@ pub(super) fn replace_light_culling(app: &mut App) {
         .in_set(super::AccelCullingSystems)
         .run_if(crate::systems::trees_awake),
     );
-    // bevy_light's own, for the frames in which the trees stand aside in a small world
-    // (`AccelTrees::stepped_aside`).
+    // bevy_light's own, for the frames in which the trees stand aside
+    // (`AccelTrees::stepped_aside`), and, timed, before the trees' in the frames that time
+    // both (the trees' then overwrite the same verdicts).
+    let directional = super::bevy_stand_in::timed_stand_in(app, check_dir_light_mesh_visibility);
+    let point = super::bevy_stand_in::timed_stand_in(app, check_point_light_mesh_visibility);
     app.add_systems(
         PostUpdate,
-        in_light_order(
-            (
-                check_dir_light_mesh_visibility,
-                check_point_light_mesh_visibility,
-            )
-                .into_configs(),
-        )
-        .run_if(crate::systems::step_aside::trees_stepped_aside),
+        in_light_order((directional, point).into_configs())
+            .before(views::cull_directional_lights)
+            .before(views::cull_point_and_spot_lights)
+            .run_if(crate::systems::step_aside::bevy_passes_run),
     );
 }

@@ -397,7 +397,9 @@ pub(crate) fn cull_point_and_spot_lights(
     }
     candidates.end_frame();
     stats.reused_light_walks += candidates.reused;
-    stats.light_time += start.elapsed();
+    let time = start.elapsed();
+    stats.light_time += time;
+    trees.step_aside.costs().add_trees(time);
 }
 
 /// Replaces `check_dir_light_mesh_visibility`: the shadow casters of every cascade of every
@@ -482,5 +484,7 @@ pub(crate) fn cull_directional_lights(
     }
     candidates.end_frame();
     stats.reused_light_walks += candidates.reused;
-    stats.light_time += start.elapsed();
+    let time = start.elapsed();
+    stats.light_time += time;
+    trees.step_aside.costs().add_trees(time);
 }

@@ -68,13 +68,15 @@ pub fn run(name: &str, opts: &Options) -> Report {
 
 /// The test kit's plain headless Bevy app with the trees (`AccelPlugin`), as the plugin tests'
 /// `headless_app`. Not finished: add the plugins under test, then call `App::finish`. The
-/// trees are kept current at every size (`AccelSettings::step_aside_below` 0), so that the
-/// suites built on it time the trees' passes, not Bevy's standing in for them in a small world.
+/// trees are kept current at every size (`AccelSettings::step_aside_below` 0,
+/// `step_aside_when_slower` off), so that the suites built on it time the trees' passes, not
+/// Bevy's standing in for them.
 pub fn headless_app() -> App {
     let mut app = plain_bevy_app();
     app.add_plugins(AccelPlugin {
         settings: AccelSettings {
             step_aside_below: 0,
+            step_aside_when_slower: false,
             ..AccelSettings::default()
         },
     });

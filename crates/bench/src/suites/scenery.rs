@@ -102,6 +102,7 @@ impl Level {
                         static_rebuild_in_frame_up_to,
                         // The trees' streaming is what is timed, at 4,096 entities too.
                         step_aside_below: 0,
+                        step_aside_when_slower: false,
                         ..default()
                     },
                 },

@@ -51,7 +51,8 @@ pub enum Contender {
     /// a ratio in this run.
     BevyAgain,
     /// `AccelPlugin` and `AccelCullingPlugin` alone, no pointer ray: culling is all the
-    /// trees serve, so a small world steps aside (`AccelTrees::stepped_aside`).
+    /// trees serve, so they step aside in a small world, or where Bevy's culling is timed
+    /// cheaper (`AccelTrees::stepped_aside`).
     AccelNoPointer(IndexChoice),
     /// The plugins with the movers in this index.
     Accel(IndexChoice),

@@ -8,7 +8,12 @@
 //!   `check_visibility`;
 //! - `accel/<index>`: the same scene with `AccelPlugin`, `AccelCullingPlugin` and
 //!   `AccelPickingPlugin`, casting one pointer ray per frame (`AccelRayCast::cast_ray_bounds`),
-//!   the moving entities in the chosen index.
+//!   the moving entities in the chosen index;
+//! - `accel/Automatic-no-pointer`: `AccelPlugin` and `AccelCullingPlugin` alone, the pairing
+//!   whose frame the plugin promises never slower than Bevy's: its trees step aside in a small
+//!   world, or where Bevy's culling is timed cheaper (the notes give the share of frames
+//!   aside and the last timing of both sides);
+//! - *bevy again* (1k and 10k entities): a second plain Bevy app, the noise of a ratio.
 //!
 //! Scenes: a *field* of unit boxes on a square, 4 units apart with a jitter, all of them
 //! dynamic (a user who marks nothing `AccelStatic`), a share of them wobbling every frame; and
@@ -65,8 +70,7 @@ struct Sizes {
     warm_up: usize,
 }
 
-/// Up to this many entities, a scene also runs [`Contender::BevyAgain`] and
-/// [`Contender::AccelNoPointer`].
+/// Up to this many entities, a scene also runs [`Contender::BevyAgain`].
 const SMALL_WORLD: usize = 10_000;
 
 /// Frames measured at 1k and 10k entities: their frames are tenths of a millisecond, and at
@@ -173,6 +177,9 @@ struct Timed {
     visible_pct: Option<f64>,
     /// The structure the movers were in at the end (what the automatic choice chose).
     index: Option<IndexChoice>,
+    /// Accel apps: the share of measured frames in which the trees stood aside, and the last
+    /// timing of both sides that decided it (`AccelSettings::step_aside_when_slower`).
+    aside: Option<(f64, Option<bevy_accel::StepAsideProbe>)>,
 }
 
 /// Runs every contender of `scene` in turn, frame by frame.
@@ -203,12 +210,22 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
     }
     let mut times = vec![Vec::with_capacity(frames); apps.len()];
     let mut parts = vec![[const { Vec::new() }; 3]; apps.len()];
+    let mut aside_frames = vec![0usize; apps.len()];
     for _ in 0..frames {
-        for ((app, t), part) in apps.iter_mut().zip(&mut times).zip(&mut parts) {
+        for (((app, t), part), aside) in apps
+            .iter_mut()
+            .zip(&mut times)
+            .zip(&mut parts)
+            .zip(&mut aside_frames)
+        {
             let start = Instant::now();
             app.update();
             t.push(ms(start.elapsed()));
             if let Some(stats) = app.world().get_resource::<AccelStats>() {
+                *aside += app
+                    .world()
+                    .resource::<bevy_accel::AccelTrees>()
+                    .stepped_aside() as usize;
                 part[0].push(ms(stats.sync_time));
                 part[1].push(ms(stats.maintain_time));
                 part[2].push(ms(app.world().resource::<CullingStats>().time));
@@ -218,12 +235,19 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
     contenders
         .iter()
         .zip(apps.iter_mut())
-        .zip(times.into_iter().zip(parts))
-        .map(|((&c, app), (t, part))| Timed {
+        .zip(times.into_iter().zip(parts).zip(aside_frames))
+        .map(|((&c, app), ((t, part), aside))| Timed {
             frame: median(t),
             parts: c.is_accel().then(|| part.map(median)),
             visible_pct: visible_share(app, c, scene.entities),
             index: app.world().get_resource::<AccelStats>().map(|s| s.index),
+            aside: c.is_accel().then(|| {
+                let trees = app.world().resource::<bevy_accel::AccelTrees>();
+                (
+                    aside as f64 / frames.max(1) as f64,
+                    trees.last_step_aside_probe(),
+                )
+            }),
         })
         .collect()
 }
@@ -346,13 +370,13 @@ pub fn run(opts: &Options) -> Report {
         progress.step(&name);
         let mut contenders = vec![Contender::Floor, Contender::Bevy];
         // Where a frame is a few tenths of a millisecond: Bevy against itself (the noise of
-        // a ratio), and the trees serving culling alone (where a small world steps aside).
+        // a ratio).
         if n <= SMALL_WORLD {
-            contenders.extend([
-                Contender::BevyAgain,
-                Contender::AccelNoPointer(IndexChoice::Automatic),
-            ]);
+            contenders.push(Contender::BevyAgain);
         }
+        // The trees serving culling alone, at every size: the pairing whose frame the plugin
+        // promises never slower than Bevy's (where they may step aside).
+        contenders.push(Contender::AccelNoPointer(IndexChoice::Automatic));
         contenders.extend(size.indexes.iter().map(|&i| Contender::Accel(i)));
         // The default choice as it was before the busy movers' list: what the list changes.
         contenders.push(Contender::AccelBusyOff(IndexChoice::Automatic));
@@ -400,9 +424,22 @@ pub fn run(opts: &Options) -> Report {
             let Some([sync, maintain, culling]) = t.parts else {
                 continue;
             };
+            let aside = match t.aside {
+                Some((share, probe)) if share > 0.0 || probe.is_some() => format!(
+                    "; aside {:.0}% of frames{}",
+                    share * 100.0,
+                    probe.map_or(String::new(), |p| format!(
+                        " (last probe: trees {:.3} ms, Bevy {:.3} ms)",
+                        ms(p.trees),
+                        ms(p.bevy)
+                    ))
+                ),
+                _ => String::new(),
+            };
             notes.push(format!(
                 "{name}, {} (on {:?}): bevy/accel {whole:.2}x whole frame, {over_floor:.2}x \
-                 over the floor; sync {:.2} ms, maintenance {:.2} ms, culling {:.2} ms (medians)",
+                 over the floor; sync {:.2} ms, maintenance {:.2} ms, culling {:.2} ms \
+                 (medians){aside}",
                 c.label(),
                 t.index.unwrap_or_default(),
                 sync,
