@@ -65,8 +65,10 @@ pub struct AccelSettings {
     /// `AccelRayCast`, an `AccelSelection` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery).
     /// The trees catch up, from every change made meanwhile, in the frame the world grows
     /// past it or a reader appears (see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
-    /// 0 keeps them current at every size. The default lies where the trees stop paying
-    /// for their upkeep at one and two compute threads (BENCHMARKS.md, Whole frame).
+    /// 0 turns this rule off; with [`step_aside_when_slower`](Self::step_aside_when_slower)
+    /// off too, the trees are kept current at every size. The default lies where the trees
+    /// stop paying for their upkeep at one and two compute threads (BENCHMARKS.md, Whole
+    /// frame).
     pub step_aside_below: usize,
     /// In a world of any size whose trees serve culling alone (no registered reader, as for
     /// [`step_aside_below`](Self::step_aside_below)), step aside while Bevy's own culling

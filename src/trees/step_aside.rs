@@ -138,12 +138,13 @@ impl StepAside {
         self.read_while_aside.store(true, Ordering::Relaxed);
         if !self.warned.swap(true, Ordering::Relaxed) {
             warn!(
-                "bevy_accel: `AccelTrees` was read while the trees stood aside (a world below \
-                 `AccelSettings::step_aside_below` entities with no registered reader), so \
-                 this read saw them as they were when they stepped aside; they are kept \
-                 current from the next frame on. Read them through `AccelSpatialQuery::trees` \
-                 or `AccelRayCast::trees`, which register their system, or set \
-                 `step_aside_below` to 0."
+                "bevy_accel: `AccelTrees` was read while the trees stood aside (a world with \
+                 no registered reader, below `AccelSettings::step_aside_below` entities or \
+                 whose culling Bevy's own pass was timed doing for less), so this read saw \
+                 them as they were when they stepped aside; they are kept current from the \
+                 next frame on. Read them through `AccelSpatialQuery::trees` or \
+                 `AccelRayCast::trees`, which register their system, or set \
+                 `step_aside_below` to 0 and `step_aside_when_slower` to false."
             );
         }
     }
