@@ -29,6 +29,7 @@ pub(crate) mod step_aside;
 mod tests;
 
 pub use busy_movers::{BusyMoverSettings, BusyMovers};
+#[cfg(feature = "culling")]
 pub(crate) use cost_probe::FrameCosts;
 pub use cost_probe::StepAsideProbe;
 pub use placement::LocalFrame;
