@@ -63,6 +63,7 @@
 //! - [`index`]: [`EntityIndex`], the structures that hold the slots, queried as one.
 //! - `systems`: the frame's sync and upkeep, in the sets of [`AccelSystems`].
 //! - `spatial_query`: [`AccelSpatialQuery`], overlap and nearest queries for any system.
+//! - `diagnostics`: [`AccelDiagnosticsPlugin`], the plugins' figures as Bevy diagnostics.
 //! - [`culling`], [`picking`], [`selection`], [`overlays`], [`panel`], [`preview`]: the
 //!   services, each its plugin and cargo feature.
 #![warn(missing_docs)]
@@ -70,6 +71,7 @@
 mod components;
 #[cfg(feature = "culling")]
 pub mod culling;
+mod diagnostics;
 pub mod index;
 #[cfg(feature = "picking")]
 mod meshes;
@@ -94,6 +96,7 @@ mod trees;
 pub use components::{AccelIgnore, AccelStatic, AccelTracked};
 #[cfg(feature = "culling")]
 pub use culling::{AccelCullingPlugin, AccelCullingSettings, AccelCullingSystems, CullingStats};
+pub use diagnostics::AccelDiagnosticsPlugin;
 pub use index::{
     AutomaticIndexSettings, AutomaticIndexStats, BvhIndexSettings, BvhIndexStats, EntityIndex,
     IndexChoice,
@@ -137,6 +140,12 @@ pub mod prelude {
     pub use crate::spatial_accel;
     #[cfg(feature = "culling")]
     pub use crate::{AccelCullingPlugin, AccelCullingSettings, AccelCullingSystems, CullingStats};
+    pub use crate::{
+        AccelDiagnosticsPlugin, AccelIgnore, AccelPlugin, AccelPlugins, AccelSettings,
+        AccelSpatialQuery, AccelStatic, AccelStats, AccelSystems, AccelTracked, AccelTrees,
+        AutomaticIndexSettings, BusyMoverSettings, BusyMovers, BvhIndexSettings, IndexChoice,
+        StaticTreeBuild,
+    };
     #[cfg(feature = "overlays")]
     pub use crate::{
         AccelGizmos, AccelOverlaySettings, AccelOverlayStats, AccelOverlaySystems,
@@ -146,11 +155,6 @@ pub mod prelude {
     pub use crate::{
         AccelHitExtra, AccelPickingCamera, AccelPickingPlugin, AccelPickingSettings,
         AccelPickingStats, AccelPickingSystems, AccelRayCast, SlotMeshTableMode,
-    };
-    pub use crate::{
-        AccelIgnore, AccelPlugin, AccelPlugins, AccelSettings, AccelSpatialQuery, AccelStatic,
-        AccelStats, AccelSystems, AccelTracked, AccelTrees, AutomaticIndexSettings,
-        BusyMoverSettings, BusyMovers, BvhIndexSettings, IndexChoice, StaticTreeBuild,
     };
     #[cfg(feature = "egui")]
     pub use crate::{AccelPanelPlugin, AccelPanelSettings, AccelPanelSystems};

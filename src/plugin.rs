@@ -50,11 +50,11 @@ impl Plugin for AccelPlugin {
             .init_resource::<AccelTrees>()
             .init_resource::<AccelStats>();
         crate::systems::add_tree_systems(app);
-        AccelStats::register(app);
     }
 }
 
-/// Every plugin of the crate that its cargo features compiled in, [`AccelPlugin`] first:
+/// Every plugin of the crate that its cargo features compiled in, [`AccelPlugin`] first,
+/// then [`AccelDiagnosticsPlugin`](crate::AccelDiagnosticsPlugin):
 /// [`AccelCullingPlugin`](crate::AccelCullingPlugin) (`culling`),
 /// [`AccelPickingPlugin`](crate::AccelPickingPlugin) (`picking`),
 /// [`AccelSpritePickingPlugin`](crate::AccelSpritePickingPlugin) (`sprite_picking`),
@@ -86,7 +86,9 @@ pub struct AccelPlugins;
 
 impl PluginGroup for AccelPlugins {
     fn build(self) -> PluginGroupBuilder {
-        let group = PluginGroupBuilder::start::<Self>().add(AccelPlugin::default());
+        let group = PluginGroupBuilder::start::<Self>()
+            .add(AccelPlugin::default())
+            .add(crate::AccelDiagnosticsPlugin);
         #[cfg(feature = "culling")]
         let group = group.add(crate::AccelCullingPlugin);
         #[cfg(feature = "picking")]

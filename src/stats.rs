@@ -7,7 +7,9 @@ use core::time::Duration;
 use spatial_accel::query::{IndexStats, UpkeepReport};
 
 /// Counts and timings of the last sync, updated every frame the plugin runs (not while the
-/// trees stand aside in a small world: see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
+/// trees stand aside: see [`AccelTrees::stepped_aside`](crate::AccelTrees::stepped_aside)).
+/// Also published as Bevy diagnostics (the constants below) by
+/// [`AccelDiagnosticsPlugin`](crate::AccelDiagnosticsPlugin).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct AccelStats {
     /// Entities inserted into a tree this frame.

@@ -32,7 +32,8 @@ fn app(ours: bool) -> App {
     let mut app = headless_app();
     add_lights(&mut app);
     if ours {
-        app.add_plugins(AccelCullingPlugin);
+        // The diagnostics too: the tests check that the light views' time is published.
+        app.add_plugins((AccelCullingPlugin, AccelDiagnosticsPlugin));
     }
     app.finish();
     app

@@ -103,7 +103,6 @@ pub struct AccelCullingPlugin;
 
 impl Plugin for AccelCullingPlugin {
     fn build(&self, app: &mut App) {
-        CullingStats::register(app);
         app.init_resource::<AccelCullingSettings>()
             .register_type::<AccelCullingSettings>();
         app.init_resource::<CullingStats>().add_systems(

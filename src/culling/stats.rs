@@ -6,7 +6,8 @@ use bevy::prelude::*;
 use core::time::Duration;
 
 /// What the last culling pass did, summed over views. Also published as Bevy diagnostics
-/// ([`CullingStats::TIME`], [`CullingStats::LIGHT_TIME`], [`CullingStats::VISIBLE`]).
+/// ([`CullingStats::TIME`], [`CullingStats::LIGHT_TIME`], [`CullingStats::VISIBLE`]) by
+/// [`AccelDiagnosticsPlugin`](crate::AccelDiagnosticsPlugin).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct CullingStats {
     /// Views culled.
@@ -75,8 +76,8 @@ impl CullingStats {
     }
 }
 
-/// Adds the last frame's culling figures to Bevy's diagnostics (called by the plugin's one
-/// diagnostics system, in `Last`, after the camera and light passes).
+/// Adds the last frame's culling figures to Bevy's diagnostics (called by
+/// `AccelDiagnosticsPlugin`'s one system, in `Last`, after the camera and light passes).
 pub(crate) fn add_culling_measurements(s: &CullingStats, diagnostics: &mut Diagnostics) {
     diagnostics.add_measurement(&CullingStats::TIME, || s.time.as_secs_f64() * 1e3);
     diagnostics.add_measurement(&CullingStats::LIGHT_TIME, || {

@@ -67,6 +67,10 @@ impl Plugin for AccelPanelPlugin {
         if !app.is_plugin_added::<EguiPlugin>() {
             app.add_plugins(EguiPlugin::default());
         }
+        // The time plots read the plugins' diagnostics.
+        if !app.is_plugin_added::<crate::AccelDiagnosticsPlugin>() {
+            app.add_plugins(crate::AccelDiagnosticsPlugin);
+        }
         app.init_resource::<AccelPanelSettings>()
             .register_type::<AccelPanelSettings>()
             .add_systems(Update, toggle_panel.in_set(AccelPanelSystems))

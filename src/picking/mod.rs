@@ -120,7 +120,6 @@ pub struct AccelPickingPlugin;
 
 impl Plugin for AccelPickingPlugin {
     fn build(&self, app: &mut App) {
-        AccelPickingStats::register(app);
         app.init_resource::<AccelPickingSettings>()
             .init_resource::<AccelPickingStats>()
             .init_resource::<AccelMeshCache>()

@@ -27,7 +27,7 @@ impl AccelPickingStats {
     }
 }
 
-/// Adds the backend's time to Bevy's diagnostics (called by the plugin's one diagnostics
+/// Adds the backend's time to Bevy's diagnostics (called by `AccelDiagnosticsPlugin`'s one
 /// system, in `Last`); a frame with no ray measures zero, so the plot shows idle frames as
 /// idle.
 pub(crate) fn add_picking_measurements(stats: &AccelPickingStats, diagnostics: &mut Diagnostics) {

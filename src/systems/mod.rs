@@ -14,8 +14,8 @@
 //! 4. [`AccelSystems::Stats`]: none of the plugin's own; the point after which the trees and
 //!    [`AccelStats`](crate::AccelStats) hold the whole frame's state.
 //!
-//! In `Last`, one system (`publish_diagnostics`) adds the trees', the culling's and the
-//! picking's figures to Bevy's diagnostics.
+//! With [`AccelDiagnosticsPlugin`](crate::AccelDiagnosticsPlugin), one system in `Last` adds
+//! the trees', the culling's and the picking's figures to Bevy's diagnostics.
 
 mod bvh_upkeep;
 mod choose_index;
@@ -51,7 +51,8 @@ pub enum AccelSystems {
     Maintain,
     /// After it, [`AccelStats`](crate::AccelStats) and the trees hold the frame's state
     /// (published at the end of the maintenance, which saves the executor a system a frame;
-    /// the diagnostics follow in `Last`).
+    /// the diagnostics, with [`AccelDiagnosticsPlugin`](crate::AccelDiagnosticsPlugin),
+    /// follow in `Last`).
     Stats,
 }
 
@@ -99,7 +100,6 @@ pub(crate) fn add_tree_systems(app: &mut App) {
                 sync::sync_trees.in_set(AccelSystems::Sync),
                 maintain::maintain_trees.in_set(AccelSystems::Maintain),
             ),
-        )
-        .add_systems(Last, publish_stats::publish_diagnostics.run_if(trees_awake));
+        );
     membership::add_membership_observers(app);
 }
