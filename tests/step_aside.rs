@@ -105,12 +105,7 @@ impl Twins {
             apply(app, entities, live, &c);
             app.update();
         }
-        assert_culled_alike(
-            (&mut self.bevy.0, &self.bevy.1),
-            (&mut self.accel.0, &self.accel.1),
-            frame,
-        );
-        self.stepped_aside()
+        self.checked(frame)
     }
 
     /// One frame in which every live entity moves a little, the same in both apps, checked
@@ -127,6 +122,11 @@ impl Twins {
             }
             app.update();
         }
+        self.checked(frame)
+    }
+
+    /// Checks that both apps culled alike in `frame`; whether ours stood aside.
+    fn checked(&mut self, frame: usize) -> bool {
         assert_culled_alike(
             (&mut self.bevy.0, &self.bevy.1),
             (&mut self.accel.0, &self.accel.1),
@@ -141,6 +141,19 @@ impl Twins {
             .world()
             .resource::<AccelTrees>()
             .stepped_aside()
+    }
+
+    /// A reader appears (a system with `AccelSpatialQuery`): the trees wake in its first
+    /// frame and hold the world as it is now.
+    fn wake_for_a_reader(&mut self) {
+        self.accel
+            .0
+            .world_mut()
+            .run_system_once(|q: AccelSpatialQuery| q.trees().stepped_aside())
+            .unwrap();
+        self.accel.0.update();
+        assert!(!self.stepped_aside());
+        self.assert_trees_hold();
     }
 
     /// Our trees hold exactly the live entities, each with its current world box.
@@ -166,16 +179,7 @@ fn a_small_world_steps_aside_culls_as_bevy_and_catches_up() {
         stepped_aside_frames >= 60,
         "stood aside {stepped_aside_frames} frames"
     );
-    // A reader appears: the trees wake in its first frame and hold the world as it is now.
-    twins
-        .accel
-        .0
-        .world_mut()
-        .run_system_once(|q: AccelSpatialQuery| q.trees().stepped_aside())
-        .unwrap();
-    twins.accel.0.update();
-    assert!(!twins.stepped_aside());
-    twins.assert_trees_hold();
+    twins.wake_for_a_reader();
     for frame in 0..SETTLE + 10 {
         assert!(
             !twins.churned_frame(frame),
@@ -303,15 +307,7 @@ fn timed_cheaper_bevy_passes_step_the_trees_aside_at_any_size() {
         .filter(|&&aside| !aside)
         .count();
     assert!(woken_after > 0, "no trial woke the trees");
-    twins
-        .accel
-        .0
-        .world_mut()
-        .run_system_once(|q: AccelSpatialQuery| q.trees().stepped_aside())
-        .unwrap();
-    twins.accel.0.update();
-    assert!(!twins.stepped_aside());
-    twins.assert_trees_hold();
+    twins.wake_for_a_reader();
     for frame in 0..SETTLE + 40 {
         assert!(!twins.swarming_frame(600 + frame), "aside with a reader");
     }
