@@ -14,6 +14,7 @@ use bevy::prelude::*;
 /// (BENCHMARKS.md, Whole frame). [`AccelPlugins`](crate::AccelPlugins) has it, and
 /// [`AccelPanelPlugin`](crate::AccelPanelPlugin) adds it for its time plots. Add it after the
 /// plugins whose figures it publishes, or anywhere: it looks for them in [`Plugin::finish`].
+/// Added more than once (by the panel and by hand), it publishes once.
 ///
 /// ```
 /// use bevy::diagnostic::DiagnosticsStore;
@@ -31,12 +32,24 @@ use bevy::prelude::*;
 #[derive(Default)]
 pub struct AccelDiagnosticsPlugin;
 
+/// Marks an app whose diagnostics system is added.
+#[derive(Resource)]
+struct DiagnosticsPublished;
+
 impl Plugin for AccelDiagnosticsPlugin {
     fn build(&self, app: &mut App) {
-        app.add_systems(
+        if app.world().contains_resource::<DiagnosticsPublished>() {
+            return;
+        }
+        app.insert_resource(DiagnosticsPublished).add_systems(
             Last,
             publish_diagnostics.run_if(crate::systems::trees_awake),
         );
+    }
+
+    // The panel adds it where a game has not: a second one is harmless (see `build`).
+    fn is_unique(&self) -> bool {
+        false
     }
 
     fn finish(&self, app: &mut App) {

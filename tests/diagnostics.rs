@@ -16,10 +16,11 @@ fn measured(app: &App, path: &bevy::diagnostic::DiagnosticPath) -> bool {
         .is_some()
 }
 
-fn culled_grid(with_diagnostics: bool) -> App {
+/// A culled grid with `diagnostics` copies of the plugin, after 3 frames.
+fn culled_grid(diagnostics: usize) -> App {
     let mut app = common::headless_app();
     app.add_plugins(AccelCullingPlugin);
-    if with_diagnostics {
+    for _ in 0..diagnostics {
         app.add_plugins(AccelDiagnosticsPlugin);
     }
     app.finish();
@@ -37,7 +38,7 @@ fn culled_grid(with_diagnostics: bool) -> App {
 
 #[test]
 fn the_plugin_publishes_the_trees_and_the_culling() {
-    let app = culled_grid(true);
+    let app = culled_grid(1);
     for path in [
         AccelStats::SYNC_TIME,
         AccelStats::MAINTAIN_TIME,
@@ -59,10 +60,19 @@ fn the_plugin_publishes_the_trees_and_the_culling() {
 
 #[test]
 fn without_the_plugin_nothing_is_measured() {
-    let app = culled_grid(false);
+    let app = culled_grid(0);
     for path in [AccelStats::SYNC_TIME, CullingStats::TIME] {
         assert!(!measured(&app, &path), "{path} measured");
     }
     // The figures are in the resources all the same.
     assert_eq!(app.world().resource::<AccelStats>().dynamic_entities, 64);
+}
+
+/// The panel adds the plugin where a game has not; added twice, it publishes once a frame.
+#[test]
+fn added_twice_it_publishes_once() {
+    let app = culled_grid(2);
+    let store = app.world().resource::<DiagnosticsStore>();
+    let history = store.get(&AccelStats::SYNC_TIME).unwrap().history_len();
+    assert_eq!(history, 3, "one measurement a frame");
 }
