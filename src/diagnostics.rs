@@ -47,7 +47,7 @@ impl Plugin for AccelDiagnosticsPlugin {
         );
     }
 
-    // The panel adds it where a game has not: a second one is harmless (see `build`).
+    // The panel adds it whatever the game added: a second copy is a no-op (see `build`).
     fn is_unique(&self) -> bool {
         false
     }

@@ -67,10 +67,9 @@ impl Plugin for AccelPanelPlugin {
         if !app.is_plugin_added::<EguiPlugin>() {
             app.add_plugins(EguiPlugin::default());
         }
-        // The time plots read the plugins' diagnostics.
-        if !app.is_plugin_added::<crate::AccelDiagnosticsPlugin>() {
-            app.add_plugins(crate::AccelDiagnosticsPlugin);
-        }
+        // The time plots read the plugins' diagnostics (a second copy of the plugin is a
+        // no-op, so this holds beside `AccelPlugins` or a game's own).
+        app.add_plugins(crate::AccelDiagnosticsPlugin);
         app.init_resource::<AccelPanelSettings>()
             .register_type::<AccelPanelSettings>()
             .add_systems(Update, toggle_panel.in_set(AccelPanelSystems))

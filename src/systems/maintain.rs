@@ -22,14 +22,13 @@ pub(crate) fn maintain_trees(
     mut automatic: ResMut<AutomaticIndex>,
     mut traffic: Local<RayTraffic>,
 ) {
-    let start = Instant::now();
     land_static_builds(&settings, &mut trees, &mut stats);
     maintain_index(&settings, &mut trees, &mut stats, &mut traffic);
     if trees.is_changed() {
         publish_tree_stats(&trees, &mut stats);
     }
     advise_index(&settings, &trees, &mut automatic, &mut stats);
-    trees.step_aside.costs().add_trees(start.elapsed());
+    trees.step_aside.costs().add_trees(stats.maintain_time);
 }
 
 /// Makes the dynamic index consistent after the sync's edits and lets it spend
