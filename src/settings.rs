@@ -80,6 +80,17 @@ pub struct AccelSettings {
     /// (BENCHMARKS.md, Whole frame); [`AccelTrees::last_step_aside_probe`](crate::AccelTrees::last_step_aside_probe)
     /// gives the last timing. Off, only the size decides.
     pub step_aside_when_slower: bool,
+    /// Where the trees serve culling alone (no registered reader, as for
+    /// [`step_aside_below`](Self::step_aside_below)) and no view read the busy movers last
+    /// frame, leave their moves unwritten. A camera that sees most of the world takes a flat
+    /// pass that gives every busy mover Bevy's own test and never reads their boxes, so with
+    /// every view such a view (a ground or third-person camera) writing them is upkeep
+    /// nothing uses. While they are out of date every view takes that flat pass and light
+    /// views test every caster; the first frame a view would walk the trees (the camera
+    /// turned to a narrow view) or a reader appears, the next sync writes every busy mover's
+    /// current box. Off, their moves are written every frame. A scene whose lights cast
+    /// shadows through the trees keeps them current.
+    pub skip_unread_mover_upkeep: bool,
 }
 
 impl Default for AccelSettings {
@@ -98,6 +109,7 @@ impl Default for AccelSettings {
             busy_movers: BusyMoverSettings::default(),
             step_aside_below: 5_000,
             step_aside_when_slower: true,
+            skip_unread_mover_upkeep: true,
         }
     }
 }

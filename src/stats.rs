@@ -19,11 +19,16 @@ pub struct AccelStats {
     /// Entities removed from a tree this frame.
     pub removed: usize,
     /// Dynamic entities whose box the sync wrote this frame, whether or not a structure
-    /// changed (a move inside a fat leaf or a loose cell counts here, not in `updated`).
+    /// changed (a move inside a fat leaf or a loose cell counts here, not in `updated`), and
+    /// the busy movers whose moves it left unwritten ([`busy_moves_skipped`](Self::busy_moves_skipped)).
     pub moved: usize,
     /// Of [`moved`](Self::moved), the busy movers' moves: written to their flat list, not
     /// to the dynamic index.
     pub busy_moved: usize,
+    /// Of [`busy_moved`](Self::busy_moved), the moves left unwritten because no view or
+    /// reader would read them
+    /// ([`AccelSettings::skip_unread_mover_upkeep`](crate::AccelSettings::skip_unread_mover_upkeep)).
+    pub busy_moves_skipped: usize,
     /// Entities currently left out for a bad transform or box.
     pub rejected: usize,
     /// True when a new static tree was swapped in this frame (built in the frame or off it).

@@ -61,6 +61,7 @@ fn app(ours: bool) -> App {
             },
             step_aside_below: 0,
             step_aside_when_slower: false,
+            skip_unread_mover_upkeep: false,
             ..default()
         })
         .add_plugins(AccelCullingPlugin);

@@ -3,12 +3,13 @@
 //! lights and camera paths in two apps, one with each; every light view's caster lists and
 //! every entity's `ViewVisibility` must agree.
 
-use bevy::camera::primitives::Aabb;
+use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::{
     CascadesVisibleEntities, CubemapVisibleEntities, NoAutoAabb, NoFrustumCulling, RenderLayers,
     VisibleMeshEntities,
 };
 use bevy::light::NotShadowCaster;
+use bevy::math::primitives::ViewFrustum;
 use bevy::prelude::*;
 use bevy_accel::AccelCullingPlugin;
 use bevy_accel::culling::CullingStats;
@@ -378,15 +379,28 @@ fn check_light_views(busy: BusyMovers, index: IndexChoice) {
 fn moving_lights_culled_alike(
     settings: impl FnOnce(&mut AccelSettings),
     frames: usize,
-) -> (App, usize) {
+) -> (App, usize, usize) {
+    moving_lights_seen_alike(settings, |_| {}, frames)
+}
+
+/// [`moving_lights_culled_alike`], with `setup` applied to both apps' worlds after the lights
+/// and cameras are spawned.
+fn moving_lights_seen_alike(
+    settings: impl FnOnce(&mut AccelSettings),
+    setup: impl Fn(&mut World),
+    frames: usize,
+) -> (App, usize, usize) {
     let mut bevy_app = app(false);
     let mut accel_app = app(true);
     settings(&mut accel_app.world_mut().resource_mut::<AccelSettings>());
     let parents = [populate(&mut bevy_app, 5), populate(&mut accel_app, 5)];
     lights_and_cameras(&mut bevy_app);
     lights_and_cameras(&mut accel_app);
+    setup(bevy_app.world_mut());
+    setup(accel_app.world_mut());
     let mut rng = Rng::from_state(77);
     let mut aside_frames = 0;
+    let mut unwritten_frames = 0;
     for frame in 0..frames {
         let light_step = rng.vec3(-10.0, 10.0);
         let parent_step = rng.vec3(-20.0, 20.0);
@@ -402,12 +416,19 @@ fn moving_lights_culled_alike(
             app.update();
         }
         aside_frames += accel_app.world().resource::<AccelTrees>().stepped_aside() as usize;
+        unwritten_frames += usize::from(
+            accel_app
+                .world()
+                .resource::<AccelStats>()
+                .busy_moves_skipped
+                > 0,
+        );
         assert!(
             light_views(&mut bevy_app) == light_views(&mut accel_app),
             "frame {frame}: light views or caster flags differ"
         );
     }
-    (accel_app, aside_frames)
+    (accel_app, aside_frames, unwritten_frames)
 }
 
 /// Below `AccelSettings::step_aside_below`, with culling the trees' only use, bevy_light's
@@ -415,7 +436,7 @@ fn moving_lights_culled_alike(
 /// step aside while lights and casters move.
 #[test]
 fn light_views_equal_bevys_while_the_trees_step_aside() {
-    let (_, aside_frames) =
+    let (_, aside_frames, _) =
         moving_lights_culled_alike(|settings| settings.step_aside_below = 5_000, 50);
     assert!(aside_frames >= 15, "stood aside {aside_frames} frames");
 }
@@ -425,7 +446,7 @@ fn light_views_equal_bevys_while_the_trees_step_aside() {
 /// views stay Bevy's in every such frame.
 #[test]
 fn light_views_equal_bevys_through_timed_probe_frames() {
-    let (accel_app, _) = moving_lights_culled_alike(
+    let (accel_app, ..) = moving_lights_culled_alike(
         |settings| {
             settings.step_aside_below = 0;
             settings.step_aside_when_slower = true;
@@ -440,5 +461,55 @@ fn light_views_equal_bevys_through_timed_probe_frames() {
     assert!(
         probe.bevy > Duration::ZERO && probe.trees > Duration::ZERO,
         "{probe:?}"
+    );
+}
+
+/// With `AccelSettings::skip_unread_mover_upkeep` and a crowd in front of the cameras (so
+/// that they take the flat pass, which reads no busy mover), the light views' walks and
+/// verdicts still read the busy movers, so their moves are written every frame (but perhaps
+/// the first, before any light view was culled), and the light views stay Bevy's.
+#[test]
+fn light_views_keep_the_busy_movers_written() {
+    let crowd_in_view = |world: &mut World| {
+        for i in 0..4_000 {
+            let at = Vec3::new((i % 20) as f32, (i / 20 % 10) as f32, (i / 200) as f32) * 2.0
+                - Vec3::new(20.0, 10.0, 20.0);
+            world.spawn((
+                Transform::from_translation(at),
+                Visibility::Visible,
+                Mesh3d::default(),
+                NoAutoAabb,
+                Aabb::from_min_max(Vec3::splat(-0.5), Vec3::splat(0.5)),
+                Caster(3_000 + i),
+            ));
+        }
+        // The cameras' frusta as `Projection` would give them, wide enough for the crowd.
+        let mut cameras = world.query_filtered::<(&Transform, &mut Frustum), With<Camera>>();
+        for (transform, mut frustum) in cameras.iter_mut(world) {
+            let clip_from_view = Mat4::perspective_infinite_reverse_rh(1.2, 1.0, 0.1);
+            let view_from_world = transform.to_matrix().inverse();
+            *frustum = Frustum(ViewFrustum::from_clip_from_world(
+                &(clip_from_view * view_from_world),
+            ));
+        }
+    };
+    let (accel_app, _, unwritten_frames) = moving_lights_seen_alike(
+        |settings| {
+            settings.step_aside_below = 0;
+            settings.step_aside_when_slower = false;
+            settings.skip_unread_mover_upkeep = true;
+        },
+        crowd_in_view,
+        60,
+    );
+    let culling = accel_app.world().resource::<CullingStats>();
+    assert_eq!(
+        culling.flat_views, culling.views,
+        "the cameras see most of the scene: {culling:?}"
+    );
+    assert!(accel_app.world().resource::<AccelStats>().busy_movers > 0);
+    assert!(
+        unwritten_frames <= 1,
+        "moves unwritten in {unwritten_frames} frames"
     );
 }

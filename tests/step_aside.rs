@@ -1,8 +1,11 @@
 //! The trees stepping aside in a small world that only culling uses
-//! (`AccelSettings::step_aside_below`, `AccelTrees::stepped_aside`): the culling stays Bevy's
-//! through the step aside and back, the trees catch up with every spawn, move and despawn
-//! made while they stood still, and a reader keeps them current.
+//! (`AccelSettings::step_aside_below`, `AccelTrees::stepped_aside`), or where Bevy's culling is
+//! timed cheaper, and the busy movers' moves left unwritten while no view reads them
+//! (`AccelSettings::skip_unread_mover_upkeep`): the culling stays Bevy's through the step
+//! aside and back, the trees catch up with every spawn, move and despawn made while they
+//! stood still, and a reader keeps them current.
 
+use bevy::camera::primitives::Frustum;
 use bevy::ecs::system::RunSystemOnce;
 use bevy::prelude::*;
 use bevy_accel::prelude::*;
@@ -70,14 +73,20 @@ impl Twins {
     }
 
     fn with(step_aside_below: usize, step_aside_when_slower: bool, seed: u64) -> Self {
+        Self::configured(seed, |settings| {
+            settings.step_aside_below = step_aside_below;
+            settings.step_aside_when_slower = step_aside_when_slower;
+        })
+    }
+
+    /// Twins whose settings `configure` sets (from the tests' own: trees kept current).
+    fn configured(seed: u64, configure: impl Fn(&mut AccelSettings)) -> Self {
         let make = |ours: bool| {
             let mut app = app(ours);
             app.init_resource::<ChangedVisibility>()
                 .add_systems(Last, record_changed_visibility);
             if ours {
-                let mut settings = app.world_mut().resource_mut::<AccelSettings>();
-                settings.step_aside_below = step_aside_below;
-                settings.step_aside_when_slower = step_aside_when_slower;
+                configure(&mut app.world_mut().resource_mut::<AccelSettings>());
             }
             let world = app.world_mut();
             let entities = spawn_grid(world, 8, 0.7, |_, _| {});
@@ -133,6 +142,19 @@ impl Twins {
             frame,
         );
         self.stepped_aside()
+    }
+
+    /// Points both apps' camera at `frustum`.
+    fn look(&mut self, frustum: Frustum) {
+        for (app, ..) in [&mut self.bevy, &mut self.accel] {
+            let world = app.world_mut();
+            let mut cameras = world.query_filtered::<&mut Frustum, With<Camera>>();
+            *cameras.single_mut(world).unwrap() = frustum;
+        }
+    }
+
+    fn stats(&self) -> &AccelStats {
+        self.accel.0.world().resource::<AccelStats>()
     }
 
     fn stepped_aside(&self) -> bool {
@@ -345,4 +367,72 @@ fn timed_dearer_bevy_passes_keep_the_trees_awake() {
         .last_step_aside_probe()
         .expect("probed");
     assert!(probe.bevy > probe.trees, "{probe:?}");
+}
+
+/// Under a camera that sees most of the world, every view takes the flat pass, which gives
+/// the busy movers Bevy's own test: their moves are left unwritten, and the culling is Bevy's
+/// all the same, through spawns and despawns. The camera turns to a narrow view: the trees
+/// write every busy mover's box and walk again. Back to the wide view, and a reader appears:
+/// it finds every entity where it is.
+#[test]
+fn busy_moves_no_view_reads_are_left_unwritten_and_caught_up() {
+    let mut twins = Twins::configured(0x5c1b_b05e, |settings| {
+        settings.step_aside_below = 0;
+        settings.step_aside_when_slower = false;
+        settings.skip_unread_mover_upkeep = true;
+    });
+    let wide = frustum(Vec3::new(-40.0, 40.0, -40.0), Vec3::splat(14.0), 1.4);
+    let narrow = frustum(Vec3::splat(-20.0), Vec3::ZERO, 0.05);
+    let mut frame = 0;
+    let mut run = |twins: &mut Twins, frames: usize| {
+        let mut skipped = 0;
+        for _ in 0..frames {
+            if frame % 5 == 4 {
+                twins.churned_frame(frame);
+            } else {
+                twins.swarming_frame(frame);
+            }
+            assert!(!twins.stepped_aside(), "frame {frame}");
+            skipped += usize::from(twins.stats().busy_moves_skipped > 0);
+            frame += 1;
+        }
+        skipped
+    };
+    twins.look(wide);
+    let skipped = run(&mut twins, 60);
+    assert!(
+        twins.stats().busy_movers > 100,
+        "the movers are busy movers"
+    );
+    assert!(skipped > 40, "moves skipped in {skipped} of 60 frames");
+    let trees = twins.accel.0.world().resource::<AccelTrees>();
+    assert!(!trees.busy_movers_current());
+    twins.look(narrow);
+    run(&mut twins, 3);
+    let skipped = run(&mut twins, 20);
+    assert_eq!(skipped, 0, "a narrow view reads the busy movers");
+    let culling = twins.accel.0.world().resource::<CullingStats>();
+    assert_eq!(culling.flat_views, 0, "the narrow view walks the trees");
+    twins.look(wide);
+    let skipped = run(&mut twins, 30);
+    assert!(skipped > 20, "moves skipped in {skipped} of 30 frames");
+    twins.wake_for_a_reader();
+    assert!(
+        twins
+            .accel
+            .0
+            .world()
+            .resource::<AccelTrees>()
+            .busy_movers_current()
+    );
+    for _ in 0..10 {
+        twins.swarming_frame(frame);
+        assert_eq!(
+            twins.stats().busy_moves_skipped,
+            0,
+            "frame {frame}: a reader"
+        );
+        frame += 1;
+    }
+    twins.assert_trees_hold();
 }

@@ -68,7 +68,7 @@ pub(crate) fn walk_frustum_for_bevy(
     mut visit: impl FnMut(FoundIn, u32, Containment),
 ) {
     let frustum = &FrustumLanes::new(frustum);
-    let busy = trees.query().busy_movers();
+    let busy = trees.index().busy_movers();
     let chunks = match layers {
         WalkedLayers::All | WalkedLayers::BusyMoversOnly => busy.chunk_count(),
         WalkedLayers::TreesOnly => 0,
@@ -165,7 +165,7 @@ fn walk_trees_for_bevy(
         Containment::Intersecting => ViewClassification::default(),
     };
     trees
-        .query()
+        .index()
         .for_each_in_views_of_trees(1, classify, |slot, masks| {
             let containment = if masks.inside != 0 {
                 Containment::Inside

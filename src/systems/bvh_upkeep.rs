@@ -28,7 +28,7 @@ impl RayTraffic {
     /// the movers from the pair's update count (0 for other backends).
     pub(crate) fn observe(&mut self, trees: &AccelTrees, stats: &AccelStats) {
         let updates = trees
-            .query()
+            .index()
             .bvh_pair()
             .map_or(self.updates_seen, StaticDynamicPair::dynamic_update_count);
         let moved = updates.saturating_sub(self.updates_seen);
@@ -68,7 +68,7 @@ pub(crate) fn maintain_bvh(
     stats: &mut AccelStats,
     traffic: &RayTraffic,
 ) {
-    let Some(pair) = trees.query().bvh_pair() else {
+    let Some(pair) = trees.index().bvh_pair() else {
         return;
     };
     let snapshot_moved = pair.dynamic_ray_snapshot_needs_refit();
@@ -91,7 +91,7 @@ pub(crate) fn maintain_bvh(
         with_pair(trees, StaticDynamicPair::refit_dynamic_ray_snapshot);
     }
     keep_ray_snapshot(settings, trees, traffic);
-    let pair = trees.query().bvh_pair();
+    let pair = trees.index().bvh_pair();
     let bvh = stats.bvh.get_or_insert_default();
     if report.is_some() {
         bvh.last_maintain = report;
@@ -130,7 +130,7 @@ fn keep_ray_snapshot(
     trees: &mut ResMut<AccelTrees>,
     traffic: &RayTraffic,
 ) {
-    let Some(pair) = trees.query().bvh_pair() else {
+    let Some(pair) = trees.index().bvh_pair() else {
         return;
     };
     if pair.dynamic_ray_snapshot_pending() {

@@ -57,7 +57,7 @@ pub(crate) fn index_switch_due(
     // Trees that stand aside switch nothing (and a read through `query` would wake them).
     !trees.stepped_aside()
         && (trees.index_switch_in_flight()
-            || trees.query().choice() != automatic.resolve(settings.index))
+            || trees.index().choice() != automatic.resolve(settings.index))
 }
 
 /// Feeds the frame's workload to the advisor, once the frame's figures are published; the

@@ -42,7 +42,7 @@ fn maintain_index(
     traffic: &mut RayTraffic,
 ) {
     // Compared through shared access first: a mutable access marks `AccelTrees` changed.
-    if let Some(tree) = trees.query().dynamic_bvh() {
+    if let Some(tree) = trees.index().dynamic_bvh() {
         let config = dynamic_config(settings, tree.config());
         if *tree.config() != config {
             trees.index_mut().configure_bvh(config);
@@ -52,7 +52,7 @@ fn maintain_index(
     stats.rays_per_frame = traffic.rays;
     let start = Instant::now();
     let edited = trees.bypass_change_detection().take_pending_upkeep();
-    if trees.query().bvh_pair().is_some() {
+    if trees.index().bvh_pair().is_some() {
         maintain_bvh(&settings.bvh, trees, stats, traffic);
     } else {
         stats.bvh = None;

@@ -7,7 +7,7 @@ use crate::trees::AccelTrees;
 /// the trees; every figure is O(1) to read (the depth is the root's stored height: a walk of
 /// a large tree, even once a second, would be a frame hitch).
 pub(super) fn publish_tree_stats(trees: &AccelTrees, stats: &mut AccelStats) {
-    let index = trees.query();
+    let index = trees.index();
     stats.busy_movers = index.busy_movers().len();
     stats.dynamic_entities = index.dynamic_len() + stats.busy_movers;
     stats.static_entities = trees.static_len();

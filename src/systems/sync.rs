@@ -59,6 +59,8 @@ const PARALLEL_SCAN_MAX_LEFT: usize = 1_024;
 pub(crate) struct MovesBatch {
     /// Busy movers whose box changed.
     busy_moved: usize,
+    /// Busy movers whose move was left unwritten.
+    busy_skipped: usize,
     /// Entities the pass left for the one-thread placement: not busy movers, or with a
     /// transform the placement refuses.
     left: Vec<Entity>,
@@ -98,6 +100,10 @@ pub(crate) fn sync_trees(
     let busy = &settings.busy_movers;
     let busy_on = busy.wanted(tree_state.busy_enabled(), stats.moved, stats.rays_per_frame);
     tree_state.begin_busy_frame(busy_on, busy.transfers_per_frame);
+    // Why skip: see `trees::unread_movers`. The last frame's culling read no busy mover's box.
+    let skip_busy = tree_state
+        .unread_movers
+        .take_skip(settings.skip_unread_mover_upkeep && !tree_state.step_aside.has_readers());
 
     for entity in pending.0.drain() {
         let desired =
@@ -123,6 +129,29 @@ pub(crate) fn sync_trees(
             }
         }
     }
+    // After the membership changes, so that the busy movers left are live and tracked.
+    if !skip_busy && tree_state.unread_movers.is_stale() {
+        let mut dropped = Vec::new();
+        let refreshed = tree_state.refresh_busy_movers(
+            |entity| {
+                let (aabb, gt, ..) = membership
+                    .get(entity)
+                    .map_err(|_| "it is no longer in the world")?;
+                let (Some(aabb), Some(gt)) = (aabb, gt) else {
+                    return Err("it has no Aabb or GlobalTransform");
+                };
+                placement(aabb, gt).map(|at| at.world)
+            },
+            &mut dropped,
+        );
+        counts.updated += refreshed;
+        counts.busy_moved += refreshed;
+        for (entity, why) in dropped {
+            counts.removed += 1;
+            rejected.reject(entity, why);
+        }
+    }
+    tree_state.unread_movers.set_stale(skip_busy);
     // The moved entities are scattered through their tables (only some moved): each one's
     // `GlobalTransform` and `Aabb` rows are asked for well ahead, and once those are on their
     // way, its slot and tree leaf (found through the entity) a few entities ahead.
@@ -142,12 +171,17 @@ pub(crate) fn sync_trees(
     };
     let place_moved = |is_static: bool| {
         move |(trees, rejected, counts): &mut State, (entity, aabb, gt, marked): Moved| {
-            if wanted(marked) {
-                place_checked(trees, rejected, entity, aabb, gt, is_static, counts);
+            if !wanted(marked) {
+                return;
             }
+            if skip_busy && !is_static && trees.is_busy_mover(entity) {
+                counts.busy_skipped += 1;
+                return;
+            }
+            place_checked(trees, rejected, entity, aabb, gt, is_static, counts);
         }
     };
-    let dynamic_entities = tree_state.query().dynamic_len() + tree_state.busy_len();
+    let dynamic_entities = tree_state.index().dynamic_len() + tree_state.busy_len();
     let left_last_frame = stats.moved.saturating_sub(stats.busy_moved);
     let parallel = (tree_state.busy_len() >= PARALLEL_BUSY_FROM
         || (dynamic_entities >= PARALLEL_SCAN_FROM && left_last_frame <= PARALLEL_SCAN_MAX_LEFT))
@@ -158,6 +192,7 @@ pub(crate) fn sync_trees(
             dynamic_entities,
             &moved,
             settings.require_marker,
+            skip_busy,
             &mut batches,
             &mut counts,
         );
@@ -196,21 +231,25 @@ pub(crate) fn sync_trees(
             place_moved(true),
         );
     }
-    let mut dropped = Vec::new();
-    counts.updated += tree_state.settle_quiet_busy_movers(
-        busy,
-        |entity| {
-            let (aabb, gt, ..) = membership.get(entity).ok()?;
-            let at = placement(aabb?, gt?).ok()?;
-            Some((at.world, at.frame()))
-        },
-        &mut dropped,
-    );
-    for entity in dropped {
-        counts.removed += 1;
-        rejected.reject(entity, "the dynamic index refused it back");
+    // Unwritten moves leave the stamps that tell quiet busy movers old, and the runs'
+    // bounds as they were: both wait for the frame that writes them.
+    if !skip_busy {
+        let mut dropped = Vec::new();
+        counts.updated += tree_state.settle_quiet_busy_movers(
+            busy,
+            |entity| {
+                let (aabb, gt, ..) = membership.get(entity).ok()?;
+                let at = placement(aabb?, gt?).ok()?;
+                Some((at.world, at.frame()))
+            },
+            &mut dropped,
+        );
+        for entity in dropped {
+            counts.removed += 1;
+            rejected.reject(entity, "the dynamic index refused it back");
+        }
+        tree_state.tighten_busy_chunk_bounds();
     }
-    tree_state.tighten_busy_chunk_bounds();
     // The index switch's own edits were marked by its system.
     let index_edits = counts.inserted + counts.removed + counts.updated
         - counts.busy_moved
@@ -226,8 +265,11 @@ pub(crate) fn sync_trees(
     stats.inserted = counts.inserted;
     stats.updated = counts.updated;
     stats.removed = counts.removed;
-    stats.moved = counts.moved;
-    stats.busy_moved = counts.busy_moved;
+    // Unwritten moves count as moves: the busy movers' list and the choice of index follow
+    // how many entities move, not how many were written.
+    stats.moved = counts.moved + counts.busy_skipped;
+    stats.busy_moved = counts.busy_moved + counts.busy_skipped;
+    stats.busy_moves_skipped = counts.busy_skipped;
     stats.rejected = rejected.0.len();
     stats.sync_time = switch.time + start.elapsed();
     trees.step_aside.costs().add_trees(stats.sync_time);
@@ -235,7 +277,8 @@ pub(crate) fn sync_trees(
 
 /// Writes the new boxes of the moved busy movers from every thread of the compute pool, and
 /// returns the moved entities it left for [`place_checked`] (in entity order, so that their
-/// slots do not depend on the threads' timing).
+/// slots do not depend on the threads' timing). With `skip_busy`, the busy movers' moves are
+/// counted and left unwritten (see `trees::unread_movers`).
 ///
 /// Why: at a million entities the sync's moves are most of its time, and a busy mover's move
 /// (its rows read, its world box computed, one list entry written) touches nothing another
@@ -248,18 +291,36 @@ fn move_busy_movers_in_parallel(
     dynamic_entities: usize,
     moved: &MovedQuery<Without<AccelStatic>>,
     require_marker: bool,
+    skip_busy: bool,
     batches: &mut Parallel<MovesBatch>,
     counts: &mut SyncCounts,
 ) -> Vec<Entity> {
-    let moves = trees.concurrent_busy_moves();
     let batches_ref = &*batches;
     // The thread's batch is found once per batch of the query, not once per entity (a
     // thread-local lookup each).
     let batch_of_thread = || batches_ref.borrow_local_mut();
-    moved
-        .par_iter()
-        .batching_strategy(uneven_work_batches(dynamic_entities))
-        .for_each_init(batch_of_thread, |batch, (entity, aabb, gt, marked)| {
+    let batching = uneven_work_batches(dynamic_entities);
+    if skip_busy {
+        let trees = &*trees;
+        moved.par_iter().batching_strategy(batching).for_each_init(
+            batch_of_thread,
+            |batch, (entity, _, _, marked)| {
+                if require_marker && !marked {
+                    return;
+                }
+                if trees.is_busy_mover(entity) {
+                    batch.busy_skipped += 1;
+                } else {
+                    batch.left.push(entity);
+                }
+            },
+        );
+        return gather_batches(batches, counts);
+    }
+    let moves = trees.concurrent_busy_moves();
+    moved.par_iter().batching_strategy(batching).for_each_init(
+        batch_of_thread,
+        |batch, (entity, aabb, gt, marked)| {
             if require_marker && !marked {
                 return;
             }
@@ -274,13 +335,22 @@ fn move_busy_movers_in_parallel(
                 Some(_) => {}
                 None => batch.left.push(entity),
             }
-        });
+        },
+    );
+    gather_batches(batches, counts)
+}
+
+/// Adds the threads' batches into `counts`, and returns the entities they left for
+/// [`place_checked`], in entity order.
+fn gather_batches(batches: &mut Parallel<MovesBatch>, counts: &mut SyncCounts) -> Vec<Entity> {
     let mut left = Vec::new();
     for batch in batches.iter_mut() {
         counts.busy_moved += batch.busy_moved;
         counts.updated += batch.busy_moved;
         counts.moved += batch.busy_moved;
+        counts.busy_skipped += batch.busy_skipped;
         batch.busy_moved = 0;
+        batch.busy_skipped = 0;
         left.append(&mut batch.left);
     }
     left.sort_unstable_by_key(|e| e.index());
@@ -294,6 +364,8 @@ struct SyncCounts {
     removed: usize,
     moved: usize,
     busy_moved: usize,
+    /// Busy movers that moved, their moves left unwritten (see `trees::unread_movers`).
+    busy_skipped: usize,
 }
 
 fn place_checked(

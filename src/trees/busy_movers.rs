@@ -174,6 +174,50 @@ impl AccelTrees {
         })
     }
 
+    /// Whether `entity` is a busy mover: one 4-byte read by its index (and its entry's tag).
+    #[inline]
+    pub(crate) fn is_busy_mover(&self, entity: Entity) -> bool {
+        self.index
+            .busy_movers()
+            .position(entity.index_u32(), busy_tag(entity))
+            .is_some()
+    }
+
+    /// Gives every busy mover its current box, after frames whose moves were left unwritten
+    /// (see `unread_movers`). `now` gives an entity's current world box, or why it has none
+    /// (its transform is no longer valid): it is then taken out of the trees and pushed to
+    /// `dropped` with the reason, for the caller to report. Returns how many boxes changed.
+    pub(crate) fn refresh_busy_movers(
+        &mut self,
+        mut now: impl FnMut(Entity) -> Result<Aabb, &'static str>,
+        dropped: &mut Vec<(Entity, &'static str)>,
+    ) -> usize {
+        let stamp = self.busy.stamp;
+        let movers: Vec<Entity> = self
+            .index
+            .busy_movers()
+            .entries()
+            .iter()
+            .filter_map(|entry| self.entities_by_slot[entry.id as usize])
+            .collect();
+        let mut changed = 0;
+        for entity in movers {
+            match now(entity) {
+                Ok(bounds) => {
+                    let busy = self.index.busy_movers_mut();
+                    if let Some(at) = busy.position(entity.index_u32(), busy_tag(entity)) {
+                        changed += usize::from(busy.set_bounds(at, bounds, stamp));
+                    }
+                }
+                Err(why) => {
+                    self.remove(entity);
+                    dropped.push((entity, why));
+                }
+            }
+        }
+        changed
+    }
+
     /// The busy movers open to moves from several threads at once (see [`BusyMoves`]).
     pub(crate) fn concurrent_busy_moves(&mut self) -> BusyMoves<'_> {
         BusyMoves {

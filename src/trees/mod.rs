@@ -27,6 +27,7 @@ mod static_scenery;
 pub(crate) mod step_aside;
 #[cfg(test)]
 mod tests;
+mod unread_movers;
 
 pub use busy_movers::{BusyMoverSettings, BusyMovers};
 #[cfg(feature = "culling")]
@@ -127,24 +128,64 @@ pub struct AccelTrees {
     index_generation: u64,
     /// Whether the trees stand still this frame (see [`Self::stepped_aside`]).
     pub(crate) step_aside: step_aside::StepAside,
+    /// Whether the busy movers' moves are written (see `unread_movers`).
+    pub(crate) unread_movers: unread_movers::UnreadMovers,
 }
 
 impl AccelTrees {
+    /// Notes a public read of the trees: one made while they stand aside wakes them from the
+    /// next frame on, with one warning.
+    #[inline]
+    fn note_read(&self) {
+        if self.step_aside.is_aside() {
+            self.step_aside.note_unseen_read();
+        }
+    }
+
+    /// [`Self::note_read`] for a read that may reach the busy movers' boxes: one made while
+    /// they are out of date (see [`Self::busy_movers_current`]) also keeps them current from
+    /// the next frame on.
+    #[inline]
+    fn note_read_with_busy_movers(&self) {
+        if self.step_aside.is_aside() || self.unread_movers.is_stale() {
+            self.step_aside.note_unseen_read();
+        }
+    }
+
+    /// Whether the busy movers' boxes are current. They are not while the trees serve culling
+    /// alone and every view takes the flat pass, which never reads them
+    /// ([`AccelSettings::skip_unread_mover_upkeep`](crate::AccelSettings::skip_unread_mover_upkeep)):
+    /// a read through [`Self::query`] then sees them where they were when their moves were
+    /// last written, and keeps them current from the next frame on. Systems with an
+    /// `AccelRayCast` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery) never see them
+    /// out of date.
+    pub fn busy_movers_current(&self) -> bool {
+        !self.unread_movers.is_stale()
+    }
+
+    /// [`Self::query`] for the plugin's own upkeep and culling, which read the trees only while
+    /// they are current and the busy movers only while their boxes are (see
+    /// `unread_movers`): without the read check.
+    #[inline]
+    pub(crate) fn index(&self) -> &EntityIndex {
+        &self.index
+    }
+
     /// Both trees, as one [`SpatialQuery`](spatial_accel::SpatialQuery): primitive ids are slots.
     pub fn query(&self) -> &EntityIndex {
-        self.step_aside.note_read();
+        self.note_read_with_busy_movers();
         &self.index
     }
 
     /// The dynamic BVH, while it is the index of the moving entities.
     pub fn dynamic_bvh(&self) -> Option<&DynamicBvh> {
-        self.step_aside.note_read();
+        self.note_read();
         self.index.dynamic_bvh()
     }
 
     /// The static tree.
     pub fn static_tree(&self) -> &Bvh {
-        self.step_aside.note_read();
+        self.note_read();
         self.index.static_tree()
     }
 
@@ -172,7 +213,7 @@ impl AccelTrees {
     /// The slot and tree of a tracked entity.
     #[inline]
     pub fn location(&self, entity: Entity) -> Option<(u32, TreeSlot)> {
-        self.step_aside.note_read();
+        self.note_read();
         self.tracked_location(entity)
     }
 
@@ -187,19 +228,19 @@ impl AccelTrees {
     /// True when the entity is in a tree.
     #[inline]
     pub fn contains(&self, entity: Entity) -> bool {
-        self.step_aside.note_read();
+        self.note_read();
         self.tracked(entity).is_some()
     }
 
     /// Number of tracked entities.
     pub fn len(&self) -> usize {
-        self.step_aside.note_read();
+        self.note_read();
         self.tracked_count
     }
 
     /// True when nothing is tracked.
     pub fn is_empty(&self) -> bool {
-        self.step_aside.note_read();
+        self.note_read();
         self.tracked_count == 0
     }
 
@@ -237,7 +278,13 @@ impl AccelTrees {
 
     /// Every tracked entity with its slot, in slot order.
     pub fn iter(&self) -> impl Iterator<Item = (Entity, u32)> + '_ {
-        self.step_aside.note_read();
+        self.note_read();
+        self.culling_iter()
+    }
+
+    /// [`Self::iter`] for the plugin's culling, without the read check (see
+    /// [`Self::index`]).
+    pub(crate) fn culling_iter(&self) -> impl Iterator<Item = (Entity, u32)> + '_ {
         self.entities_by_slot
             .iter()
             .enumerate()

@@ -124,27 +124,28 @@ impl StepAside {
         self.readers.fetch_add(1, Ordering::Relaxed);
     }
 
-    /// Notes a public read of the trees: one made while aside wakes them from the next
-    /// decision on, with one warning.
+    /// Whether a plugin or system that reads the trees is registered (or was seen reading).
     #[inline]
-    pub(crate) fn note_read(&self) {
-        if self.is_aside() {
-            self.read_while_aside_slow();
-        }
+    pub(crate) fn has_readers(&self) -> bool {
+        self.readers.load(Ordering::Relaxed) > 0
     }
 
+    /// Notes a public read of the trees made while they stood aside or while the busy movers'
+    /// boxes were out of date: they are kept current from the next decision on, with one
+    /// warning.
     #[cold]
-    fn read_while_aside_slow(&self) {
+    pub(crate) fn note_unseen_read(&self) {
         self.read_while_aside.store(true, Ordering::Relaxed);
         if !self.warned.swap(true, Ordering::Relaxed) {
             warn!(
                 "bevy_accel: `AccelTrees` was read while the trees stood aside (a world with \
                  no registered reader, below `AccelSettings::step_aside_below` entities or \
-                 whose culling Bevy's own pass was timed doing for less), so this read saw \
-                 them as they were when they stepped aside; they are kept current from the \
-                 next frame on. Read them through `AccelSpatialQuery::trees` or \
-                 `AccelRayCast::trees`, which register their system, or set \
-                 `step_aside_below` to 0 and `step_aside_when_slower` to false."
+                 whose culling Bevy's own pass was timed doing for less) or while no view read \
+                 the busy movers' boxes (`AccelSettings::skip_unread_mover_upkeep`), so this \
+                 read may have seen entities where they were some frames ago; they are kept \
+                 current from the next frame on. Read them through `AccelSpatialQuery::trees` \
+                 or `AccelRayCast::trees`, which register their system, or turn those settings \
+                 off."
             );
         }
     }

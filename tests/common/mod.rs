@@ -19,15 +19,18 @@ use core::ops::ControlFlow;
 /// A headless app with the trees and what Bevy's visibility needs: no window, no renderer
 /// ([`plain_bevy_app`] with `AccelPlugin`). Not finished: add the plugins under test, then
 /// call `App::finish`. The trees are kept current at every size
-/// (`AccelSettings::step_aside_below` 0, `step_aside_when_slower` off): the tests' worlds
-/// would otherwise hand their culling to Bevy's own pass after a few frames, when small or
-/// when Bevy's pass is timed cheaper (`tests/step_aside.rs` tests both).
+/// (`AccelSettings::step_aside_below` 0, `step_aside_when_slower` and
+/// `skip_unread_mover_upkeep` off): the tests' worlds would otherwise hand their culling to
+/// Bevy's own pass after a few frames, when small or when Bevy's pass is timed cheaper, or
+/// leave the busy movers' boxes unwritten under wide views (`tests/step_aside.rs` tests all
+/// three).
 pub fn headless_app() -> App {
     let mut app = plain_bevy_app();
     app.add_plugins(AccelPlugin {
         settings: AccelSettings {
             step_aside_below: 0,
             step_aside_when_slower: false,
+            skip_unread_mover_upkeep: false,
             ..default()
         },
     });

@@ -116,7 +116,11 @@ pub(crate) fn cull_views_with_trees(
     let start = Instant::now();
     let mut s = CullingStats::default();
     let ranges = ranges.as_deref();
-    let tracked = trees.len().max(1) as f32;
+    let tracked = trees.tracked_len().max(1) as f32;
+    // While the busy movers' boxes are out of date no view walks the trees; a view that
+    // would have says so, and the next sync writes them (see `trees::unread_movers`).
+    let busy_stale = trees.unread_movers.is_stale();
+    let mut busy_read = false;
     let trees_changed = trees.is_changed();
     // Busy movers change the trees every frame without touching the index: the flat
     // pass's verdicts over the index hold through such frames (see `TreeVerdicts`).
@@ -137,11 +141,12 @@ pub(crate) fn cull_views_with_trees(
         visible_entities.clear_all();
         let view_mask = view_layers.cloned().unwrap_or_default();
         // Stale trees (the plugin is switched off) cannot be walked: Bevy's pass then.
-        if !untracked.trees_current()
-            || visible_fraction
+        let walks_trees = untracked.trees_current()
+            && !visible_fraction
                 .get(&view)
-                .is_some_and(|f| *f > FLAT_PASS_ABOVE)
-        {
+                .is_some_and(|f| *f > FLAT_PASS_ABOVE);
+        busy_read |= walks_trees;
+        if !walks_trees || busy_stale {
             s.flat_views += 1;
             // Fresh trees settle most entities' frustum tests (see `TreeVerdicts`), but only
             // over an index that held still this frame (busy movers aside, which Bevy's test
@@ -219,7 +224,7 @@ pub(crate) fn cull_views_with_trees(
         if no_cpu_culling_view {
             // The camera opted out of culling: everything passes, so the trees have nothing
             // to skip. Decide what they hold, without frustum tests.
-            for (entity, _) in trees.iter() {
+            for (entity, _) in trees.culling_iter() {
                 pass.decide_exact(entity);
             }
         } else {
@@ -306,6 +311,7 @@ pub(crate) fn cull_views_with_trees(
             sort_visible(list);
         }
     }
+    trees.unread_movers.report_cameras(busy_read);
     visible_fraction.retain(|view, _| views.contains(*view));
     walks.retain(|view, _| views.contains(*view));
     s.time = start.elapsed();

@@ -96,7 +96,7 @@ pub(super) fn walk_lists(
         0 => 0,
         n => u32::MAX >> (32 - n),
     };
-    trees.query().for_each_in_views(
+    trees.index().for_each_in_views(
         all,
         |b, undecided| classify_for_lists(lists, walk_frusta, b, undecided),
         visit,

@@ -240,7 +240,7 @@ fn decide_view(
     stats: &mut CullingStats,
     trees: &AccelTrees,
 ) {
-    let tracked = trees.len();
+    let tracked = trees.tracked_len();
     let flat = candidates.flat(tracked);
     // A flat view still takes the trees' word where they can give it (see `verdicts`).
     let settled = flat && candidates.trees_current() && lists.len() <= MAX_SETTLED_LISTS;

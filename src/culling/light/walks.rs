@@ -150,6 +150,15 @@ impl LightCandidates {
             .fractions
             .get(&view)
             .is_some_and(|(f, _)| *f > FLAT_LIGHT_VIEW_ABOVE);
+        // The walk, and the flat pass's verdicts (`super::verdicts`), read the busy movers:
+        // while their boxes are out of date the view tests every caster, and the next sync
+        // writes them (see `trees::unread_movers`).
+        trees.unread_movers.note_light_read();
+        if trees.unread_movers.is_stale() {
+            self.stale = true;
+            self.kept.clear();
+            return;
+        }
         if self.skipped {
             return;
         }

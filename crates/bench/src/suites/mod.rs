@@ -69,14 +69,15 @@ pub fn run(name: &str, opts: &Options) -> Report {
 /// The test kit's plain headless Bevy app with the trees (`AccelPlugin`), as the plugin tests'
 /// `headless_app`. Not finished: add the plugins under test, then call `App::finish`. The
 /// trees are kept current at every size (`AccelSettings::step_aside_below` 0,
-/// `step_aside_when_slower` off), so that the suites built on it time the trees' passes, not
-/// Bevy's standing in for them.
+/// `step_aside_when_slower` and `skip_unread_mover_upkeep` off), so that the suites built on
+/// it time the trees' passes, not Bevy's standing in for them.
 pub fn headless_app() -> App {
     let mut app = plain_bevy_app();
     app.add_plugins(AccelPlugin {
         settings: AccelSettings {
             step_aside_below: 0,
             step_aside_when_slower: false,
+            skip_unread_mover_upkeep: false,
             ..AccelSettings::default()
         },
     });
@@ -96,10 +97,13 @@ pub fn trees_building_off_frame(app: &App) -> bool {
     let first_rebuild = trees
         .dynamic_bvh()
         .is_some_and(|d| d.rebuild_count() == 0 && d.rebuild_in_flight());
-    let snapshot = trees
-        .query()
-        .bvh_pair()
-        .is_some_and(|pair| pair.dynamic_ray_snapshot_pending());
+    // A read of the index while the busy movers' boxes are left out of date would keep them
+    // current from then on (`AccelTrees::busy_movers_current`); no ray reads them then.
+    let snapshot = trees.busy_movers_current()
+        && trees
+            .query()
+            .bvh_pair()
+            .is_some_and(|pair| pair.dynamic_ray_snapshot_pending());
     first_rebuild || snapshot || app.world().resource::<AccelStats>().static_build_in_flight
 }
 

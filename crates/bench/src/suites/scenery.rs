@@ -103,6 +103,7 @@ impl Level {
                         // The trees' streaming is what is timed, at 4,096 entities too.
                         step_aside_below: 0,
                         step_aside_when_slower: false,
+                        skip_unread_mover_upkeep: false,
                         ..default()
                     },
                 },

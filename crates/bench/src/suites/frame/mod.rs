@@ -11,8 +11,9 @@
 //!   the moving entities in the chosen index;
 //! - `accel/Automatic-no-pointer`: `AccelPlugin` and `AccelCullingPlugin` alone, the pairing
 //!   whose frame the plugin promises never slower than Bevy's: its trees step aside in a small
-//!   world, or where Bevy's culling is timed cheaper (the notes give the share of frames
-//!   aside and the last timing of both sides);
+//!   world, or where Bevy's culling is timed cheaper, and leave the busy movers' moves
+//!   unwritten while no view reads them (the notes give the share of frames aside, the last
+//!   timing of both sides and the share of frames with the moves unwritten);
 //! - *bevy again* (1k and 10k entities): a second plain Bevy app, the noise of a ratio.
 //!
 //! Scenes: a *field* of unit boxes on a square, 4 units apart with a jitter, all of them
@@ -180,6 +181,9 @@ struct Timed {
     /// Accel apps: the share of measured frames in which the trees stood aside, and the last
     /// timing of both sides that decided it (`AccelSettings::step_aside_when_slower`).
     aside: Option<(f64, Option<bevy_accel::StepAsideProbe>)>,
+    /// Accel apps: the share of measured frames whose busy movers' moves were left unwritten
+    /// (`AccelSettings::skip_unread_mover_upkeep`).
+    unwritten: Option<f64>,
 }
 
 /// Runs every contender of `scene` in turn, frame by frame.
@@ -211,12 +215,14 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
     let mut times = vec![Vec::with_capacity(frames); apps.len()];
     let mut parts = vec![[const { Vec::new() }; 3]; apps.len()];
     let mut aside_frames = vec![0usize; apps.len()];
+    let mut unwritten_frames = vec![0usize; apps.len()];
     for _ in 0..frames {
-        for (((app, t), part), aside) in apps
+        for ((((app, t), part), aside), unwritten) in apps
             .iter_mut()
             .zip(&mut times)
             .zip(&mut parts)
             .zip(&mut aside_frames)
+            .zip(&mut unwritten_frames)
         {
             let start = Instant::now();
             app.update();
@@ -226,6 +232,7 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
                     .world()
                     .resource::<bevy_accel::AccelTrees>()
                     .stepped_aside() as usize;
+                *unwritten += usize::from(stats.busy_moves_skipped > 0);
                 part[0].push(ms(stats.sync_time));
                 part[1].push(ms(stats.maintain_time));
                 part[2].push(ms(app.world().resource::<CullingStats>().time));
@@ -235,8 +242,13 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
     contenders
         .iter()
         .zip(apps.iter_mut())
-        .zip(times.into_iter().zip(parts).zip(aside_frames))
-        .map(|((&c, app), ((t, part), aside))| Timed {
+        .zip(
+            times
+                .into_iter()
+                .zip(parts)
+                .zip(aside_frames.into_iter().zip(unwritten_frames)),
+        )
+        .map(|((&c, app), ((t, part), (aside, unwritten)))| Timed {
             frame: median(t),
             parts: c.is_accel().then(|| part.map(median)),
             visible_pct: visible_share(app, c, scene.entities),
@@ -248,6 +260,9 @@ fn measure(scene: Scene, contenders: &[Contender], warm_up: usize, frames: usize
                     trees.last_step_aside_probe(),
                 )
             }),
+            unwritten: c
+                .is_accel()
+                .then(|| unwritten as f64 / frames.max(1) as f64),
         })
         .collect()
 }
@@ -436,10 +451,16 @@ pub fn run(opts: &Options) -> Report {
                 ),
                 _ => String::new(),
             };
+            let unwritten = match t.unwritten {
+                Some(share) if share > 0.0 => {
+                    format!("; busy movers unwritten {:.0}% of frames", share * 100.0)
+                }
+                _ => String::new(),
+            };
             notes.push(format!(
                 "{name}, {} (on {:?}): bevy/accel {whole:.2}x whole frame, {over_floor:.2}x \
                  over the floor; sync {:.2} ms, maintenance {:.2} ms, culling {:.2} ms \
-                 (medians){aside}",
+                 (medians){aside}{unwritten}",
                 c.label(),
                 t.index.unwrap_or_default(),
                 sync,
