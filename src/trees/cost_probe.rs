@@ -39,8 +39,11 @@ const ASIDE_INTERVAL_MIN: u32 = 64;
 const ASIDE_INTERVAL_MAX: u32 = 512;
 
 /// Bevy's passes must cost at most this share of the trees' for a probe to count against
-/// the trees: ties stay with the trees, whose other readers may come.
-const BEVY_SHARE_TO_STEP_ASIDE: f64 = 0.9;
+/// the trees. A tie goes to Bevy's passes: what the timing leaves out is all on the trees'
+/// side (the executor's hand-offs to two more systems, the trees' own footprint in the
+/// caches), and in a probe frame the trees' culling runs second, over what Bevy's pass just
+/// read (BENCHMARKS.md, Whole frame).
+const BEVY_SHARE_TO_STEP_ASIDE: f64 = 1.0;
 /// From this ratio of Bevy's cost to the trees' on, a probe's answer is taken as settled for
 /// long, and the next probe put off by this factor instead of doubling.
 const FAR_AHEAD_RATIO: f64 = 1.5;
@@ -281,9 +284,12 @@ mod tests {
     }
 
     #[test]
-    fn a_tie_stays_with_the_trees() {
+    fn a_tie_goes_to_bevys_passes_and_a_narrow_win_to_the_trees() {
         let mut probe = CostProbe::default();
-        let verdicts = run(&mut probe, 5_000, 100, 95);
+        let verdicts = run(&mut probe, 200, 100, 100);
+        assert!(count(&verdicts, ProbeVerdict::Aside) > 100);
+        let mut probe = CostProbe::default();
+        let verdicts = run(&mut probe, 5_000, 100, 105);
         assert_eq!(count(&verdicts, ProbeVerdict::Aside), 0);
     }
 
