@@ -155,8 +155,8 @@ impl AccelTrees {
     /// Whether the busy movers' boxes are current. They are not while the trees serve culling
     /// alone and every view takes the flat pass, which never reads them
     /// ([`AccelSettings::skip_unread_mover_upkeep`](crate::AccelSettings::skip_unread_mover_upkeep)):
-    /// a read through [`Self::query`] then sees them where they were when their moves were
-    /// last written, and keeps them current from the next frame on. Systems with an
+    /// a read through [`Self::query`] or [`Self::world_bounds`] then sees them where they were
+    /// when their moves were last written, and keeps them current from the next frame on. Systems with an
     /// `AccelRayCast` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery) never see them
     /// out of date.
     pub fn busy_movers_current(&self) -> bool {
@@ -195,11 +195,14 @@ impl AccelTrees {
         self.slots.get(slot as usize).and_then(|s| s.entity)
     }
 
-    /// The exact world box of the entity in a slot (the trees hold fattened boxes).
+    /// The exact world box of the entity in a slot (the trees hold fattened boxes). A busy
+    /// mover's may be out of date while no view reads them (see
+    /// [`Self::busy_movers_current`]); such a read keeps them current from the next frame on.
     #[inline]
     pub fn world_bounds(&self, slot: u32) -> Aabb {
         match self.slots.get(slot as usize) {
             Some(entry) if entry.is_busy() => entry.entity.map_or(Aabb::EMPTY, |entity| {
+                self.note_read_with_busy_movers();
                 self.index
                     .busy_movers()
                     .get(entity.index_u32(), busy_tag(entity))
