@@ -20,7 +20,8 @@ pub struct AccelStats {
     pub removed: usize,
     /// Dynamic entities whose box the sync wrote this frame, whether or not a structure
     /// changed (a move inside a fat leaf or a loose cell counts here, not in `updated`), and
-    /// the busy movers whose moves it left unwritten ([`busy_moves_skipped`](Self::busy_moves_skipped)).
+    /// the busy movers whose moves it left unwritten
+    /// ([`busy_moves_skipped`](Self::busy_moves_skipped)).
     pub moved: usize,
     /// Of [`moved`](Self::moved), the busy movers' moves: written to their flat list, not
     /// to the dynamic index.

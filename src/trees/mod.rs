@@ -156,9 +156,9 @@ impl AccelTrees {
     /// alone and every view takes the flat pass, which never reads them
     /// ([`AccelSettings::skip_unread_mover_upkeep`](crate::AccelSettings::skip_unread_mover_upkeep)):
     /// a read through [`Self::query`] or [`Self::world_bounds`] then sees them where they were
-    /// when their moves were last written, and keeps them current from the next frame on. Systems with an
-    /// `AccelRayCast` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery) never see them
-    /// out of date.
+    /// when their moves were last written, and keeps them current from the next frame on.
+    /// Systems with an `AccelRayCast` or an [`AccelSpatialQuery`](crate::AccelSpatialQuery)
+    /// never see them out of date.
     pub fn busy_movers_current(&self) -> bool {
         !self.unread_movers.is_stale()
     }
