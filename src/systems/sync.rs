@@ -129,19 +129,19 @@ pub(crate) fn sync_trees(
             }
         }
     }
+    // Where a tracked entity is now, for the busy movers written after frames left unwritten
+    // and for those that go back into the index once quiet.
+    let placement_now = |entity| {
+        let Ok((Some(aabb), Some(gt), ..)) = membership.get(entity) else {
+            return Err("it has no Aabb or GlobalTransform");
+        };
+        placement(aabb, gt)
+    };
     // After the membership changes, so that the busy movers left are live and tracked.
     if !skip_busy && tree_state.unread_movers.is_stale() {
         let mut dropped = Vec::new();
         let refreshed = tree_state.refresh_busy_movers(
-            |entity| {
-                let (aabb, gt, ..) = membership
-                    .get(entity)
-                    .map_err(|_| "it is no longer in the world")?;
-                let (Some(aabb), Some(gt)) = (aabb, gt) else {
-                    return Err("it has no Aabb or GlobalTransform");
-                };
-                placement(aabb, gt).map(|at| at.world)
-            },
+            |entity| placement_now(entity).map(|at| at.world),
             &mut dropped,
         );
         counts.updated += refreshed;
@@ -238,8 +238,7 @@ pub(crate) fn sync_trees(
         counts.updated += tree_state.settle_quiet_busy_movers(
             busy,
             |entity| {
-                let (aabb, gt, ..) = membership.get(entity).ok()?;
-                let at = placement(aabb?, gt?).ok()?;
+                let at = placement_now(entity).ok()?;
                 Some((at.world, at.frame()))
             },
             &mut dropped,
